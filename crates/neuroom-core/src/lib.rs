@@ -1,0 +1,20 @@
+//! The base of neuroom: geometry, cameras, images, metrics and every on-disk format of `FORMAT.md`.
+//!
+//! Everything here is plain data and exact maths; nothing here learns or renders. Later crates build on
+//! these types so that the conventions (z-up world, OpenGL pinhole frames, the equirectangular panorama
+//! frame) live in exactly one place.
+
+pub mod camera;
+pub mod error;
+pub mod formats;
+pub mod image;
+pub mod metrics;
+pub mod obb;
+pub mod pose;
+pub mod ray;
+pub mod rotation6d;
+
+pub use error::{FormatError, FormatResult};
+pub use image::Image;
+pub use pose::Pose;
+pub use ray::Ray;
