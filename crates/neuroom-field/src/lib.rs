@@ -1,1 +1,34 @@
-//! placeholder
+//! Neural implicit fields with hand-written gradients: a multiresolution hash encoding, tiny MLPs, the
+//! NeuS SDF + radiance field, the [`Field`] trait (also implemented by analytic fields), Adam and
+//! checkpoints.
+//!
+//! How a trainer uses it:
+//! 1. `let mut field = NeusField::<f32>::new(NeusConfig::object(half_extent));`
+//!    `let mut grads = Params::zeros_like(&field.params); let mut adam = Adam::new(AdamConfig::default(), &field.params);`
+//! 2. Per step: sample points along rays (object frame), `field.forward(&points, &dirs, &codes,
+//!    Outputs::Full, &mut tape)`, read `tape.copy_sdf` / `copy_rgb`, render and compute the loss with
+//!    `neuroom-render`, then `field.backward(&codes, &mut tape, &d_sdf, Some(&d_rgb), &mut grads, None)`,
+//!    `field.backward_inv_s(d_inv_s, &mut grads)`, `field.eikonal(...)`, `adam.step(&mut field.params,
+//!    &grads, &lrs)` and `grads.fill_zero()`.
+//! 3. For fusion (render per chunk while activations are hot), use the per-chunk API
+//!    ([`NeusField::forward_chunk`], [`NeusField::backward_chunk`], [`NeusField::scatter_hash_grads`]).
+
+pub mod adam;
+pub mod batch;
+pub mod bench;
+pub mod checkpoint;
+pub mod field;
+pub mod hash;
+pub mod mlp;
+pub mod neus;
+pub mod params;
+pub mod real;
+pub mod rng;
+pub mod sh;
+
+pub use adam::{Adam, AdamConfig, Schedule};
+pub use batch::Tape;
+pub use field::{AnalyticColor, AnalyticField, Field, FieldOutput, Query};
+pub use neus::{CHUNK, CodeSet, Codes, GeometricInit, NeusConfig, NeusField, Outputs, Workspace};
+pub use params::{Group, NUM_GROUPS, Params};
+pub use real::Real;

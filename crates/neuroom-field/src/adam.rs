@@ -1,0 +1,140 @@
+//! Adam over the flat parameter groups of a field, with one learning rate per group, and learning-rate
+//! schedules.
+
+use crate::params::{NUM_GROUPS, Params};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Adam hyper-parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AdamConfig {
+    /// First-moment decay.
+    pub beta1: f32,
+    /// Second-moment decay.
+    pub beta2: f32,
+    /// Denominator guard.
+    pub eps: f32,
+}
+
+impl Default for AdamConfig {
+    /// instant-ngp's choice: β = (0.9, 0.99), ε = 1e-15.
+    fn default() -> Self {
+        Self {
+            beta1: 0.9,
+            beta2: 0.99,
+            eps: 1e-15,
+        }
+    }
+}
+
+/// Adam state: moments of every parameter and the step count (checkpointed to resume exactly).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Adam {
+    /// Hyper-parameters.
+    pub config: AdamConfig,
+    /// First moments (shape of the parameters).
+    pub m: Params<f32>,
+    /// Second moments.
+    pub v: Params<f32>,
+    /// Steps taken.
+    pub step: u64,
+}
+
+impl Adam {
+    /// Zero state for parameters shaped like `params`.
+    pub fn new(config: AdamConfig, params: &Params<f32>) -> Self {
+        Self {
+            config,
+            m: Params::zeros_like(params),
+            v: Params::zeros_like(params),
+            step: 0,
+        }
+    }
+
+    /// One step: `params -= lr_g · m̂ / (√v̂ + ε)` with bias-corrected moments, group `g` at rate `lr[g]`.
+    /// A group with rate 0 is left untouched (frozen), moments included.
+    pub fn step(&mut self, params: &mut Params<f32>, grads: &Params<f32>, lr: &[f32; NUM_GROUPS]) {
+        self.step += 1;
+        let AdamConfig { beta1, beta2, eps } = self.config;
+        let t = self.step as i32;
+        let c1 = 1.0 / (1.0 - beta1.powi(t));
+        let c2 = 1.0 / (1.0 - beta2.powi(t));
+        for g in 0..NUM_GROUPS {
+            if lr[g] == 0.0 {
+                continue;
+            }
+            let rate = lr[g];
+            params.groups[g]
+                .par_chunks_mut(1 << 14)
+                .zip(grads.groups[g].par_chunks(1 << 14))
+                .zip(self.m.groups[g].par_chunks_mut(1 << 14))
+                .zip(self.v.groups[g].par_chunks_mut(1 << 14))
+                .for_each(|(((p, gr), m), v)| {
+                    for i in 0..p.len() {
+                        m[i] = beta1 * m[i] + (1.0 - beta1) * gr[i];
+                        v[i] = beta2 * v[i] + (1.0 - beta2) * gr[i] * gr[i];
+                        p[i] -= rate * (m[i] * c1) / ((v[i] * c2).sqrt() + eps);
+                    }
+                });
+        }
+    }
+}
+
+/// A learning-rate schedule: a multiplier of the base rate as a function of the step, with linear warm-up.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Schedule {
+    /// Always 1 (after warm-up).
+    Constant {
+        /// Warm-up steps.
+        warmup: u64,
+    },
+    /// `gamma^(step / every)`.
+    Exponential {
+        /// Warm-up steps.
+        warmup: u64,
+        /// Factor per `every` steps.
+        gamma: f32,
+        /// Steps per factor.
+        every: u64,
+    },
+    /// `(1 − step/total)^power` down to `floor` (the paper's polynomial decay).
+    Polynomial {
+        /// Warm-up steps.
+        warmup: u64,
+        /// Steps of the whole run.
+        total: u64,
+        /// Exponent.
+        power: f32,
+        /// Smallest multiplier.
+        floor: f32,
+    },
+}
+
+impl Schedule {
+    /// Multiplier of the base learning rate at `step` (0-based).
+    pub fn factor(&self, step: u64) -> f32 {
+        let (warmup, decay) = match *self {
+            Schedule::Constant { warmup } => (warmup, 1.0),
+            Schedule::Exponential {
+                warmup,
+                gamma,
+                every,
+            } => (warmup, gamma.powf(step as f32 / every.max(1) as f32)),
+            Schedule::Polynomial {
+                warmup,
+                total,
+                power,
+                floor,
+            } => {
+                let x = 1.0 - (step as f32 / total.max(1) as f32).min(1.0);
+                (warmup, x.powf(power).max(floor))
+            }
+        };
+        let ramp = if step < warmup {
+            (step + 1) as f32 / warmup as f32
+        } else {
+            1.0
+        };
+        ramp * decay
+    }
+}

@@ -1,0 +1,192 @@
+//! Batched, parallel forward and backward passes of a [`NeusField`] over any number of points, and the
+//! eikonal loss.
+//!
+//! A [`Tape`] keeps one [`Workspace`] per chunk of [`CHUNK`] points plus one gradient accumulator per
+//! rayon thread; both are allocated on first use and reused by later steps of the same size or smaller.
+
+use crate::neus::{CHUNK, CodeSet, Codes, NeusField, Outputs, Workspace};
+use crate::params::Params;
+use crate::real::Real;
+use rayon::prelude::*;
+
+/// What a batched forward pass saves for its backward pass.
+#[derive(Clone, Debug, Default)]
+pub struct Tape<T> {
+    chunks: Vec<Workspace<T>>,
+    used: usize,
+    partials: Vec<Params<T>>,
+    eikonal_points: Vec<[T; 3]>,
+    eikonal_objects: Vec<u32>,
+}
+
+impl<T: Real> Tape<T> {
+    /// The chunk workspaces of the last forward pass, in point order.
+    pub fn chunks(&self) -> &[Workspace<T>] {
+        &self.chunks[..self.used]
+    }
+
+    /// Copies the SDF of the last forward pass into `out`.
+    pub fn copy_sdf(&self, out: &mut [T]) {
+        for (ws, o) in self.chunks().iter().zip(out.chunks_mut(CHUNK)) {
+            o.copy_from_slice(ws.sdf());
+        }
+    }
+
+    /// Copies `∂SDF/∂x` of the last forward pass into `out`.
+    pub fn copy_gradient(&self, out: &mut [[T; 3]]) {
+        for (ws, o) in self.chunks().iter().zip(out.chunks_mut(CHUNK)) {
+            o.copy_from_slice(ws.gradient());
+        }
+    }
+
+    /// Copies the RGB rows (`n × 3`) of the last [`Outputs::Full`] forward pass into `out`.
+    pub fn copy_rgb(&self, out: &mut [T]) {
+        for (ws, o) in self.chunks().iter().zip(out.chunks_mut(CHUNK * 3)) {
+            o.copy_from_slice(ws.rgb());
+        }
+    }
+}
+
+impl<T: Real> NeusField<T> {
+    /// Forward pass over a batch, chunks in parallel. `dirs` is read only for [`Outputs::Full`] (pass `&[]`
+    /// otherwise). Read the outputs from the tape.
+    pub fn forward(
+        &self,
+        points: &[[T; 3]],
+        dirs: &[[T; 3]],
+        codes: &CodeSet,
+        outputs: Outputs,
+        tape: &mut Tape<T>,
+    ) {
+        let count = points.len().div_ceil(CHUNK);
+        while tape.chunks.len() < count {
+            tape.chunks.push(self.workspace());
+        }
+        tape.used = count;
+        tape.chunks[..count]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, ws)| {
+                let (s, e) = (i * CHUNK, ((i + 1) * CHUNK).min(points.len()));
+                let d = if outputs == Outputs::Full {
+                    &dirs[s..e]
+                } else {
+                    &[][..]
+                };
+                self.forward_chunk(&points[s..e], d, &codes.slice(s, e), outputs, ws);
+            });
+    }
+
+    /// Backward pass after [`NeusField::forward`] with the same `codes`: adds every parameter gradient to
+    /// `grads` (full shape, hash group included) and, with `d_points`, writes `∂loss/∂x` per point.
+    pub fn backward(
+        &self,
+        codes: &CodeSet,
+        tape: &mut Tape<T>,
+        d_sdf: &[T],
+        d_rgb: Option<&[T]>,
+        grads: &mut Params<T>,
+        d_points: Option<&mut [[T; 3]]>,
+    ) {
+        let threads = rayon::current_num_threads().max(1);
+        let per = tape.used.div_ceil(threads).max(1);
+        let groups = tape.used.div_ceil(per);
+        while tape.partials.len() < groups {
+            tape.partials
+                .push(Params::zeros_like_without_hash(&self.params));
+        }
+        let mut d_points_groups: Vec<Option<&mut [[T; 3]]>> = match d_points {
+            Some(d) => d.chunks_mut(per * CHUNK).map(Some).collect(),
+            None => (0..groups).map(|_| None).collect(),
+        };
+        let chunks = &mut tape.chunks[..tape.used];
+        chunks
+            .par_chunks_mut(per)
+            .zip(tape.partials[..groups].par_iter_mut())
+            .zip(d_points_groups.par_iter_mut())
+            .enumerate()
+            .for_each(|(gi, ((wss, partial), dp))| {
+                partial.fill_zero();
+                for (k, ws) in wss.iter_mut().enumerate() {
+                    let s = (gi * per + k) * CHUNK;
+                    let e = s + ws.len();
+                    let dr = d_rgb.map(|d| &d[s * 3..e * 3]);
+                    let dpk = dp
+                        .as_deref_mut()
+                        .map(|d| &mut d[k * CHUNK..k * CHUNK + (e - s)]);
+                    self.backward_chunk(&codes.slice(s, e), ws, &d_sdf[s..e], dr, partial, dpk);
+                }
+            });
+        for partial in &tape.partials[..groups] {
+            grads.add_assign(partial);
+        }
+        self.scatter_hash_grads(&tape.chunks[..tape.used], grads);
+    }
+
+    /// Eikonal loss `weight · mean_p (|∇f(p)| − 1)²` with `∇f` by central differences of step `h` (six
+    /// extra SDF evaluations per point, as Neuralangelo); adds its parameter gradients to `grads` and
+    /// returns the loss. `object` gives the object code rows when the field has object codes.
+    pub fn eikonal(
+        &self,
+        points: &[[T; 3]],
+        object: Codes,
+        h: T,
+        weight: T,
+        tape: &mut Tape<T>,
+        grads: &mut Params<T>,
+    ) -> T {
+        let n = points.len();
+        if n == 0 {
+            return T::ZERO;
+        }
+        let mut pts = std::mem::take(&mut tape.eikonal_points);
+        let mut objs = std::mem::take(&mut tape.eikonal_objects);
+        pts.clear();
+        objs.clear();
+        for (p, x) in points.iter().enumerate() {
+            for k in 0..6 {
+                let mut y = *x;
+                y[k / 2] += if k % 2 == 0 { h } else { -h };
+                pts.push(y);
+                objs.push(object.get(p) as u32);
+            }
+        }
+        let codes = CodeSet {
+            object: Codes::PerPoint(&objs),
+            ..CodeSet::default()
+        };
+        self.forward(&pts, &[], &codes, Outputs::Sdf, tape);
+        let mut f = vec![T::ZERO; 6 * n];
+        tape.copy_sdf(&mut f);
+        let (loss, d_f) = eikonal_loss(&f, h, weight);
+        self.backward(&codes, tape, &d_f, None, grads, None);
+        tape.eikonal_points = pts;
+        tape.eikonal_objects = objs;
+        loss
+    }
+}
+
+/// The eikonal loss and its gradient with respect to the six SDF samples `[+x, −x, +y, −y, +z, −z]` of
+/// every point.
+fn eikonal_loss<T: Real>(f: &[T], h: T, weight: T) -> (T, Vec<T>) {
+    let n = f.len() / 6;
+    let scale = weight / T::from_usize(n);
+    let two_h = T::from_f64(2.0) * h;
+    let mut loss = T::ZERO;
+    let mut d = vec![T::ZERO; f.len()];
+    for p in 0..n {
+        let s = &f[p * 6..p * 6 + 6];
+        let g: [T; 3] = std::array::from_fn(|a| (s[2 * a] - s[2 * a + 1]) / two_h);
+        let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+            .sqrt()
+            .max(T::from_f64(1e-12));
+        let e = len - T::ONE;
+        loss += scale * e * e;
+        for a in 0..3 {
+            let dg = scale * T::from_f64(2.0) * e * g[a] / len / two_h;
+            d[p * 6 + 2 * a] = dg;
+            d[p * 6 + 2 * a + 1] = -dg;
+        }
+    }
+    (loss, d)
+}

@@ -1,0 +1,693 @@
+//! The NeuS field: hash encoding → SDF network → (SDF, geometry feature), and a colour network on the
+//! geometry feature, the view direction (SH), the normal and the appearance / light codes.
+//!
+//! Batch layout: points are `[T; 3]` rows (SoA is not needed: every stage reads all three coordinates).
+//! Work is done per chunk of at most [`CHUNK`] points with a reusable [`Workspace`]; the batched
+//! [`NeusField::forward`] / [`NeusField::backward`] run chunks in parallel, keep one small gradient
+//! accumulator per thread (everything but the hash tables), and scatter the hash-table gradient afterwards
+//! with one rayon task per level (see [`crate::hash`]).
+//!
+//! Geometric initialisation: the SDF is `network(x) + base(x)` with a fixed analytic
+//! `base(x) = ±(|x − c| − r)` (sign `−` for a room, so the inside of the room is positive), and the
+//! network's output layer starts near zero; the field therefore starts as a sphere (or an inside-out
+//! sphere) exactly, whatever the hash grid holds. This replaces the bias trick of NeuS, which does not carry
+//! over to a one-hidden-layer network on a hash encoding.
+//!
+//! Normals: the colour network sees the analytic gradient `∂SDF/∂x` (through the hash grid's trilinear
+//! weights and the network), normalised, as an input without gradient through it. The eikonal loss instead
+//! uses central finite differences ([`NeusField::eikonal`]), so no second derivatives are ever needed.
+
+use crate::hash::{HashGrid, HashGridConfig};
+use crate::mlp::{Activation, Mlp, MlpConfig, MlpWorkspace};
+use crate::params::{Group, Params};
+use crate::real::Real;
+use crate::rng::SplitMix;
+use crate::sh::{SH_DIM, sh4};
+use serde::{Deserialize, Serialize};
+
+/// Points per chunk: small enough that a chunk's activations stay in L2 cache.
+pub const CHUNK: usize = 256;
+
+/// The analytic base SDF added to the network output (see the module documentation).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GeometricInit {
+    /// Sphere centre (field coordinates, metres).
+    pub centre: [f32; 3],
+    /// Sphere radius (metres).
+    pub radius: f32,
+    /// Flip the sign: positive inside (the room).
+    pub inside_out: bool,
+}
+
+/// Everything that fixes a field's shape; stored as JSON beside the weights.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NeusConfig {
+    /// Hash encoding.
+    pub hash: HashGridConfig,
+    /// Hidden widths of the SDF network (default one layer of 64).
+    pub sdf_hidden: Vec<usize>,
+    /// Hidden activation of the SDF network.
+    pub sdf_activation: Activation,
+    /// Width of the geometry feature passed to the colour network (default 15).
+    pub geometry_features: usize,
+    /// Hidden widths of the colour network (default two layers of 64).
+    pub color_hidden: Vec<usize>,
+    /// Width of every code: appearance, light and object (default 16).
+    pub code_dim: usize,
+    /// Number of appearance codes (capture frames).
+    pub appearance_codes: usize,
+    /// Number of light codes (lightings).
+    pub light_codes: usize,
+    /// Number of object codes; 0 = the SDF network takes no object code.
+    pub object_codes: usize,
+    /// Lower corner of the field's box: points are mapped from this box to `[0,1]³` for the hash grid.
+    pub bounds_min: [f32; 3],
+    /// Upper corner of the field's box.
+    pub bounds_max: [f32; 3],
+    /// Analytic base SDF.
+    pub init: GeometricInit,
+    /// Initial NeuS variance (`inv_s = exp(10 · variance)`).
+    pub init_variance: f32,
+    /// Seed of the initialisation.
+    pub seed: u64,
+}
+
+impl NeusConfig {
+    /// The default object field: L = 16, F = 2, T = 2^15, base resolution 16, finest 1024, SDF network one
+    /// hidden layer of 64 (ReLU), geometry feature 15, colour network 2 × 64, codes of 16; a sphere of
+    /// radius 0.8 × the smallest half-extent; the box is the object box padded by 10 %.
+    pub fn object(half_extent: [f32; 3]) -> Self {
+        let pad = half_extent.map(|h| h * 1.1);
+        let r = 0.8 * half_extent.iter().copied().fold(f32::INFINITY, f32::min);
+        Self::with_bounds(
+            pad.map(|h| -h),
+            pad,
+            15,
+            1024,
+            GeometricInit {
+                centre: [0.0; 3],
+                radius: r,
+                inside_out: false,
+            },
+        )
+    }
+
+    /// The default room (background) field: as [`NeusConfig::object`] but T = 2^19, finest 2048 over the
+    /// room box, and an inside-out sphere through the box corners' midpoint radius, positive inside.
+    pub fn room(bounds_min: [f32; 3], bounds_max: [f32; 3]) -> Self {
+        let centre = std::array::from_fn(|a| 0.5 * (bounds_min[a] + bounds_max[a]));
+        let half: [f32; 3] = std::array::from_fn(|a| 0.5 * (bounds_max[a] - bounds_min[a]));
+        let radius = half.iter().map(|h| h * h).sum::<f32>().sqrt();
+        let lo = std::array::from_fn(|a| bounds_min[a] - 0.05 * half[a]);
+        let hi = std::array::from_fn(|a| bounds_max[a] + 0.05 * half[a]);
+        Self::with_bounds(
+            lo,
+            hi,
+            19,
+            2048,
+            GeometricInit {
+                centre,
+                radius,
+                inside_out: true,
+            },
+        )
+    }
+
+    fn with_bounds(
+        lo: [f32; 3],
+        hi: [f32; 3],
+        log2_table: u32,
+        finest: usize,
+        init: GeometricInit,
+    ) -> Self {
+        Self {
+            hash: HashGridConfig {
+                levels: 16,
+                features: 2,
+                log2_table,
+                base_resolution: 16,
+                finest_resolution: finest,
+            },
+            sdf_hidden: vec![64],
+            sdf_activation: Activation::Relu,
+            geometry_features: 15,
+            color_hidden: vec![64, 64],
+            code_dim: 16,
+            appearance_codes: 1,
+            light_codes: 1,
+            object_codes: 0,
+            bounds_min: lo,
+            bounds_max: hi,
+            init,
+            init_variance: 0.3,
+            seed: 0x5EED,
+        }
+    }
+
+    fn object_dim(&self) -> usize {
+        if self.object_codes > 0 {
+            self.code_dim
+        } else {
+            0
+        }
+    }
+}
+
+/// Which outputs a forward pass computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outputs {
+    /// SDF (and geometry feature) only: sphere tracing, eikonal loss, SDF regression.
+    Sdf,
+    /// SDF and its gradient `∂SDF/∂x`; needed for position gradients in the backward pass.
+    SdfGradient,
+    /// SDF, gradient and colour.
+    Full,
+}
+
+/// Code indices of a batch: one for all points, or one per point.
+#[derive(Clone, Copy, Debug)]
+pub enum Codes<'a> {
+    /// The same row for every point.
+    Fixed(u32),
+    /// One row per point.
+    PerPoint(&'a [u32]),
+}
+
+impl<'a> Codes<'a> {
+    /// Row of point `i`.
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> usize {
+        match self {
+            Codes::Fixed(c) => *c as usize,
+            Codes::PerPoint(c) => c[i] as usize,
+        }
+    }
+
+    /// The codes of points `start..end`.
+    pub fn slice(&self, start: usize, end: usize) -> Codes<'a> {
+        match self {
+            Codes::Fixed(c) => Codes::Fixed(*c),
+            Codes::PerPoint(c) => Codes::PerPoint(&c[start..end]),
+        }
+    }
+}
+
+/// The appearance, light and object codes of a batch.
+#[derive(Clone, Copy, Debug)]
+pub struct CodeSet<'a> {
+    /// Appearance code rows.
+    pub appearance: Codes<'a>,
+    /// Light code rows.
+    pub light: Codes<'a>,
+    /// Object code rows (ignored when the field has no object codes).
+    pub object: Codes<'a>,
+}
+
+impl Default for CodeSet<'_> {
+    fn default() -> Self {
+        Self {
+            appearance: Codes::Fixed(0),
+            light: Codes::Fixed(0),
+            object: Codes::Fixed(0),
+        }
+    }
+}
+
+impl<'a> CodeSet<'a> {
+    /// The codes of points `start..end`.
+    pub fn slice(&self, start: usize, end: usize) -> CodeSet<'a> {
+        CodeSet {
+            appearance: self.appearance.slice(start, end),
+            light: self.light.slice(start, end),
+            object: self.object.slice(start, end),
+        }
+    }
+}
+
+/// Buffers of one chunk, allocated once and reused: inputs, activations, outputs and gradients.
+#[derive(Clone, Debug, Default)]
+pub struct Workspace<T> {
+    n: usize,
+    outputs: Option<Outputs>,
+    u: Vec<[T; 3]>,
+    sdf_in: Vec<T>,
+    jac: Vec<T>,
+    sdf_ws: MlpWorkspace<T>,
+    color_in: Vec<T>,
+    color_ws: MlpWorkspace<T>,
+    sdf: Vec<T>,
+    gradient: Vec<[T; 3]>,
+    base_grad: Vec<[T; 3]>,
+    d_out: Vec<T>,
+    d_sdf_in: Vec<T>,
+    d_color_in: Vec<T>,
+}
+
+impl<T: Real> Workspace<T> {
+    /// Number of points of the last forward pass.
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// Whether the last forward pass had no points.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// SDF of the last forward pass.
+    pub fn sdf(&self) -> &[T] {
+        &self.sdf[..self.n]
+    }
+
+    /// `∂SDF/∂x` of the last forward pass (not normalised); valid unless it ran with [`Outputs::Sdf`].
+    pub fn gradient(&self) -> &[[T; 3]] {
+        &self.gradient[..self.n]
+    }
+
+    /// RGB rows (`n × 3`) of the last [`Outputs::Full`] forward pass.
+    pub fn rgb(&self) -> &[T] {
+        &self
+            .color_ws
+            .acts
+            .last()
+            .expect("colour network has layers")[..self.n * 3]
+    }
+}
+
+/// A NeuS field with its parameters (`f32` to train and render, `f64` for gradient tests).
+#[derive(Clone, Debug)]
+pub struct NeusField<T = f32> {
+    config: NeusConfig,
+    grid: HashGrid,
+    sdf_mlp: Mlp,
+    color_mlp: Mlp,
+    /// The parameters, one flat vector per [`Group`].
+    pub params: Params<T>,
+    active_levels: usize,
+    lo: [T; 3],
+    inv_ext: [T; 3],
+}
+
+impl<T: Real> NeusField<T> {
+    /// A freshly initialised field: tables uniform in ±1e-4, networks He-uniform, the SDF output layer
+    /// scaled by 0.01 (the field starts as its analytic base), codes uniform in ±0.01.
+    pub fn new(config: NeusConfig) -> Self {
+        let mut field = Self::uninit(config);
+        let mut rng = SplitMix::new(field.config.seed);
+        let uniform = |v: &mut [T], rng: &mut SplitMix, s: f64| {
+            v.iter_mut()
+                .for_each(|x| *x = T::from_f64(s * (2.0 * rng.next_f64() - 1.0)))
+        };
+        uniform(field.params.get_mut(Group::Hash), &mut rng, 1e-4);
+        field
+            .sdf_mlp
+            .init(field.params.get_mut(Group::SdfMlp), &mut rng, 0.01);
+        field
+            .color_mlp
+            .init(field.params.get_mut(Group::ColorMlp), &mut rng, 1.0);
+        for g in [Group::Appearance, Group::Light, Group::Object] {
+            uniform(field.params.get_mut(g), &mut rng, 0.01);
+        }
+        field.params.get_mut(Group::Variance)[0] = T::from_f64(field.config.init_variance as f64);
+        field
+    }
+
+    /// A field of this configuration with all parameters zero (checkpoint loading fills them).
+    pub fn uninit(config: NeusConfig) -> Self {
+        let grid = HashGrid::new(config.hash.clone());
+        let enc = config.hash.output_dim();
+        let sdf_mlp = Mlp::new(MlpConfig {
+            input: enc + 3 + config.object_dim(),
+            hidden: config.sdf_hidden.clone(),
+            output: 1 + config.geometry_features,
+            hidden_activation: config.sdf_activation,
+            output_activation: Activation::None,
+        });
+        let color_mlp = Mlp::new(MlpConfig {
+            input: config.geometry_features + 2 * config.code_dim + SH_DIM + 3,
+            hidden: config.color_hidden.clone(),
+            output: 3,
+            hidden_activation: Activation::Relu,
+            output_activation: Activation::Sigmoid,
+        });
+        let sizes = [
+            grid.num_params(),
+            sdf_mlp.num_params(),
+            color_mlp.num_params(),
+            config.appearance_codes * config.code_dim,
+            config.light_codes * config.code_dim,
+            config.object_codes * config.object_dim(),
+            1,
+        ];
+        let params = Params {
+            groups: sizes.map(|s| vec![T::ZERO; s]),
+        };
+        let lo = config.bounds_min.map(|v| T::from_f64(v as f64));
+        let inv_ext = std::array::from_fn(|a| {
+            T::from_f64(1.0 / (config.bounds_max[a] - config.bounds_min[a]) as f64)
+        });
+        let active_levels = config.hash.levels;
+        Self {
+            config,
+            grid,
+            sdf_mlp,
+            color_mlp,
+            params,
+            active_levels,
+            lo,
+            inv_ext,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &NeusConfig {
+        &self.config
+    }
+
+    /// The hash grid layout.
+    pub fn grid(&self) -> &HashGrid {
+        &self.grid
+    }
+
+    /// The SDF network layout.
+    pub fn sdf_mlp(&self) -> &Mlp {
+        &self.sdf_mlp
+    }
+
+    /// The colour network layout.
+    pub fn color_mlp(&self) -> &Mlp {
+        &self.color_mlp
+    }
+
+    /// Number of hash levels in use (coarse-to-fine training); finer levels output zero.
+    pub fn active_levels(&self) -> usize {
+        self.active_levels
+    }
+
+    /// Uses only the first `k` hash levels (clamped to `1..=L`).
+    pub fn set_active_levels(&mut self, k: usize) {
+        self.active_levels = k.clamp(1, self.config.hash.levels);
+    }
+
+    /// NeuS sharpness `inv_s = exp(10 · variance)`.
+    pub fn inv_s(&self) -> T {
+        (T::from_f64(10.0) * self.params.get(Group::Variance)[0]).exp()
+    }
+
+    /// Adds the gradient of a loss with respect to `inv_s` (from the volume renderer) to the variance.
+    pub fn backward_inv_s(&self, d_inv_s: T, grads: &mut Params<T>) {
+        grads.get_mut(Group::Variance)[0] += d_inv_s * T::from_f64(10.0) * self.inv_s();
+    }
+
+    /// A workspace for chunks of up to [`CHUNK`] points.
+    pub fn workspace(&self) -> Workspace<T> {
+        let (si, so) = (self.sdf_in_dim(), 1 + self.config.geometry_features);
+        let ci = self.color_mlp.config().input;
+        Workspace {
+            n: 0,
+            outputs: None,
+            u: vec![[T::ZERO; 3]; CHUNK],
+            sdf_in: vec![T::ZERO; CHUNK * si],
+            jac: vec![T::ZERO; CHUNK * self.config.hash.output_dim() * 3],
+            sdf_ws: self.sdf_mlp.workspace(CHUNK),
+            color_in: vec![T::ZERO; CHUNK * ci],
+            color_ws: self.color_mlp.workspace(CHUNK),
+            sdf: vec![T::ZERO; CHUNK],
+            gradient: vec![[T::ZERO; 3]; CHUNK],
+            base_grad: vec![[T::ZERO; 3]; CHUNK],
+            d_out: vec![T::ZERO; CHUNK * so],
+            d_sdf_in: vec![T::ZERO; CHUNK * si],
+            d_color_in: vec![T::ZERO; CHUNK * ci],
+        }
+    }
+
+    fn sdf_in_dim(&self) -> usize {
+        self.sdf_mlp.config().input
+    }
+
+    /// Columns of the colour input that need a gradient: geometry feature, appearance and light codes.
+    fn color_grad_cols(&self) -> usize {
+        self.config.geometry_features + 2 * self.config.code_dim
+    }
+
+    /// The analytic base SDF and its gradient at `x`.
+    #[inline]
+    fn base(&self, x: &[T; 3]) -> (T, [T; 3]) {
+        let init = &self.config.init;
+        let d: [T; 3] = std::array::from_fn(|a| x[a] - T::from_f64(init.centre[a] as f64));
+        let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+            .sqrt()
+            .max(T::from_f64(1e-12));
+        let s = if init.inside_out { -T::ONE } else { T::ONE };
+        (
+            s * (r - T::from_f64(init.radius as f64)),
+            d.map(|v| s * v / r),
+        )
+    }
+
+    /// Forward pass of one chunk (at most [`CHUNK`] points). `dirs` (unit view directions) is read only for
+    /// [`Outputs::Full`]. Points outside the field's box are clamped onto it for the encoding.
+    pub fn forward_chunk(
+        &self,
+        points: &[[T; 3]],
+        dirs: &[[T; 3]],
+        codes: &CodeSet,
+        outputs: Outputs,
+        ws: &mut Workspace<T>,
+    ) {
+        let n = points.len();
+        assert!(n <= CHUNK, "forward_chunk: {n} points exceed CHUNK");
+        ws.n = n;
+        ws.outputs = Some(outputs);
+        let si = self.sdf_in_dim();
+        let enc = self.config.hash.output_dim();
+        for (u, x) in ws.u.iter_mut().zip(points) {
+            *u = std::array::from_fn(|a| {
+                ((x[a] - self.lo[a]) * self.inv_ext[a])
+                    .max(T::ZERO)
+                    .min(T::ONE)
+            });
+        }
+        let jac = (outputs != Outputs::Sdf).then_some(&mut ws.jac[..n * enc * 3]);
+        let table = self.params.get(Group::Hash);
+        self.grid.forward(
+            table,
+            &ws.u[..n],
+            self.active_levels,
+            &mut ws.sdf_in,
+            si,
+            jac,
+        );
+        let od = self.config.object_dim();
+        let objects = self.params.get(Group::Object);
+        for (p, u) in ws.u[..n].iter().enumerate() {
+            let row = &mut ws.sdf_in[p * si + enc..(p + 1) * si];
+            for a in 0..3 {
+                row[a] = T::from_f64(2.0) * u[a] - T::ONE;
+            }
+            if od > 0 {
+                let c = codes.object.get(p);
+                row[3..].copy_from_slice(&objects[c * od..(c + 1) * od]);
+            }
+        }
+        self.sdf_mlp.forward(
+            self.params.get(Group::SdfMlp),
+            &ws.sdf_in,
+            n,
+            &mut ws.sdf_ws,
+        );
+        let so = 1 + self.config.geometry_features;
+        let out = ws.sdf_ws.acts.last().expect("SDF network has layers");
+        for (p, x) in points.iter().enumerate() {
+            let (b, gb) = self.base(x);
+            ws.sdf[p] = out[p * so] + b;
+            ws.base_grad[p] = gb;
+        }
+        if outputs != Outputs::Sdf {
+            self.sdf_gradient(ws);
+        }
+        if outputs == Outputs::Full {
+            self.color_forward(dirs, codes, ws);
+        }
+    }
+
+    /// `∂SDF/∂x` through the network (input gradient only) and the hash grid's Jacobian.
+    fn sdf_gradient(&self, ws: &mut Workspace<T>) {
+        let n = ws.n;
+        let (si, so) = (self.sdf_in_dim(), 1 + self.config.geometry_features);
+        ws.d_out[..n * so].fill(T::ZERO);
+        for p in 0..n {
+            ws.d_out[p * so] = T::ONE;
+        }
+        let params = self.params.get(Group::SdfMlp);
+        self.sdf_mlp.backward(
+            params,
+            &ws.sdf_in,
+            n,
+            &mut ws.sdf_ws,
+            &ws.d_out,
+            None,
+            Some((&mut ws.d_sdf_in, si)),
+        );
+        for p in 0..n {
+            let g = self.position_grad(&ws.d_sdf_in[p * si..(p + 1) * si], &ws.jac, p);
+            let b = ws.base_grad[p];
+            ws.gradient[p] = std::array::from_fn(|a| g[a] + b[a]);
+        }
+    }
+
+    /// `∂/∂x` of the network part, given the gradient of a loss with respect to the SDF network's input row.
+    #[inline]
+    fn position_grad(&self, d_in: &[T], jac: &[T], p: usize) -> [T; 3] {
+        let enc = self.config.hash.output_dim();
+        let jrow = &jac[p * enc * 3..(p + 1) * enc * 3];
+        let mut g = [T::ZERO; 3];
+        for (c, d) in d_in[..enc].iter().enumerate() {
+            for a in 0..3 {
+                g[a] += *d * jrow[c * 3 + a];
+            }
+        }
+        std::array::from_fn(|a| (g[a] + T::from_f64(2.0) * d_in[enc + a]) * self.inv_ext[a])
+    }
+
+    /// Colour network forward; input row `[feature, appearance, light, SH(dir), normal]`.
+    fn color_forward(&self, dirs: &[[T; 3]], codes: &CodeSet, ws: &mut Workspace<T>) {
+        let n = ws.n;
+        let (g, cd) = (self.config.geometry_features, self.config.code_dim);
+        let ci = self.color_mlp.config().input;
+        let so = 1 + g;
+        let feat = ws.sdf_ws.acts.last().expect("SDF network has layers");
+        let (app, light) = (
+            self.params.get(Group::Appearance),
+            self.params.get(Group::Light),
+        );
+        for p in 0..n {
+            let row = &mut ws.color_in[p * ci..(p + 1) * ci];
+            row[..g].copy_from_slice(&feat[p * so + 1..(p + 1) * so]);
+            let (a, l) = (codes.appearance.get(p), codes.light.get(p));
+            row[g..g + cd].copy_from_slice(&app[a * cd..(a + 1) * cd]);
+            row[g + cd..g + 2 * cd].copy_from_slice(&light[l * cd..(l + 1) * cd]);
+            sh4(dirs[p], &mut row[g + 2 * cd..g + 2 * cd + SH_DIM]);
+            let nv = ws.gradient[p];
+            let len = (nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2])
+                .sqrt()
+                .max(T::from_f64(1e-12));
+            for a in 0..3 {
+                row[g + 2 * cd + SH_DIM + a] = nv[a] / len;
+            }
+        }
+        self.color_mlp.forward(
+            self.params.get(Group::ColorMlp),
+            &ws.color_in,
+            n,
+            &mut ws.color_ws,
+        );
+    }
+
+    /// Backward pass of the chunk last run through [`NeusField::forward_chunk`]. `d_sdf` (`n`) and `d_rgb`
+    /// (`n × 3`, only after [`Outputs::Full`]) are the loss gradients. Adds the gradients of every group
+    /// except the hash tables to `grads` (which may have an empty hash group); the hash tables' gradient is
+    /// left in the workspace for [`NeusField::scatter_hash_grads`]. With `d_points`, writes `∂loss/∂x`
+    /// (requires a forward pass with a gradient; the path through the normal is excluded by design).
+    pub fn backward_chunk(
+        &self,
+        codes: &CodeSet,
+        ws: &mut Workspace<T>,
+        d_sdf: &[T],
+        d_rgb: Option<&[T]>,
+        grads: &mut Params<T>,
+        d_points: Option<&mut [[T; 3]]>,
+    ) {
+        let n = ws.n;
+        let (g, cd) = (self.config.geometry_features, self.config.code_dim);
+        let (si, so) = (self.sdf_in_dim(), 1 + g);
+        ws.d_out[..n * so].fill(T::ZERO);
+        for p in 0..n {
+            ws.d_out[p * so] = d_sdf[p];
+        }
+        if let Some(d_rgb) = d_rgb {
+            assert_eq!(
+                ws.outputs,
+                Some(Outputs::Full),
+                "backward_chunk: d_rgb needs a Full forward pass"
+            );
+            let cols = self.color_grad_cols();
+            let params = self.params.get(Group::ColorMlp);
+            let gc = Some(&mut grads.groups[Group::ColorMlp as usize][..]);
+            self.color_mlp.backward(
+                params,
+                &ws.color_in,
+                n,
+                &mut ws.color_ws,
+                d_rgb,
+                gc,
+                Some((&mut ws.d_color_in, cols)),
+            );
+            for p in 0..n {
+                let row = &ws.d_color_in[p * cols..(p + 1) * cols];
+                ws.d_out[p * so + 1..(p + 1) * so].copy_from_slice(&row[..g]);
+                let (a, l) = (codes.appearance.get(p), codes.light.get(p));
+                add(
+                    &mut grads.get_mut(Group::Appearance)[a * cd..(a + 1) * cd],
+                    &row[g..g + cd],
+                );
+                add(
+                    &mut grads.get_mut(Group::Light)[l * cd..(l + 1) * cd],
+                    &row[g + cd..g + 2 * cd],
+                );
+            }
+        }
+        let params = self.params.get(Group::SdfMlp);
+        let gs = Some(&mut grads.groups[Group::SdfMlp as usize][..]);
+        self.sdf_mlp.backward(
+            params,
+            &ws.sdf_in,
+            n,
+            &mut ws.sdf_ws,
+            &ws.d_out,
+            gs,
+            Some((&mut ws.d_sdf_in, si)),
+        );
+        let (enc, od) = (self.config.hash.output_dim(), self.config.object_dim());
+        if od > 0 {
+            for p in 0..n {
+                let c = codes.object.get(p);
+                let src = &ws.d_sdf_in[p * si + enc + 3..(p + 1) * si];
+                add(&mut grads.get_mut(Group::Object)[c * od..(c + 1) * od], src);
+            }
+        }
+        if let Some(d_points) = d_points {
+            assert!(
+                matches!(ws.outputs, Some(o) if o != Outputs::Sdf),
+                "backward_chunk: d_points needs a gradient"
+            );
+            for (p, dp) in d_points[..n].iter_mut().enumerate() {
+                let gnet = self.position_grad(&ws.d_sdf_in[p * si..(p + 1) * si], &ws.jac, p);
+                let gbase = ws.base_grad[p];
+                *dp = std::array::from_fn(|a| gnet[a] + d_sdf[p] * gbase[a]);
+            }
+        }
+    }
+
+    /// Adds the hash-table gradient left by [`NeusField::backward_chunk`] in `workspaces` to the hash
+    /// group of `grads`, one rayon task per level.
+    pub fn scatter_hash_grads(&self, workspaces: &[Workspace<T>], grads: &mut Params<T>) {
+        let si = self.sdf_in_dim();
+        let segments: Vec<(&[[T; 3]], &[T])> = workspaces
+            .iter()
+            .map(|w| (&w.u[..w.n], &w.d_sdf_in[..w.n * si]))
+            .collect();
+        self.grid.backward_table(
+            &segments,
+            si,
+            self.active_levels,
+            grads.get_mut(Group::Hash),
+        );
+    }
+}
+
+fn add<T: Real>(dst: &mut [T], src: &[T]) {
+    for (d, s) in dst.iter_mut().zip(src) {
+        *d += *s;
+    }
+}

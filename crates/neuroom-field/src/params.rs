@@ -1,0 +1,114 @@
+//! Flat parameter groups of a neural field, shared by the field, its gradients, Adam and checkpoints.
+
+use crate::real::Real;
+use rayon::prelude::*;
+
+/// The parameter groups of a [`crate::NeusField`], in storage order. Each group has its own learning rate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Group {
+    /// Hash-grid tables.
+    Hash = 0,
+    /// SDF network weights and biases.
+    SdfMlp = 1,
+    /// Colour network weights and biases.
+    ColorMlp = 2,
+    /// Appearance codes `l_a`, one row per capture frame.
+    Appearance = 3,
+    /// Light codes `l_l`, one row per lighting.
+    Light = 4,
+    /// Object codes `l_obj`, one row per object held by the model.
+    Object = 5,
+    /// NeuS variance (one value; sharpness `inv_s = exp(10 · variance)`).
+    Variance = 6,
+}
+
+/// Number of groups.
+pub const NUM_GROUPS: usize = 7;
+
+impl Group {
+    /// All groups in storage order.
+    pub const ALL: [Group; NUM_GROUPS] = [
+        Group::Hash,
+        Group::SdfMlp,
+        Group::ColorMlp,
+        Group::Appearance,
+        Group::Light,
+        Group::Object,
+        Group::Variance,
+    ];
+
+    /// Stable name (safetensors key).
+    pub fn name(self) -> &'static str {
+        [
+            "hash",
+            "sdf_mlp",
+            "color_mlp",
+            "appearance",
+            "light",
+            "object",
+            "variance",
+        ][self as usize]
+    }
+}
+
+/// One flat vector per [`Group`]: the parameters of a field, or their gradients, or Adam moments.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Params<T> {
+    /// The groups, indexed by `Group as usize`.
+    pub groups: [Vec<T>; NUM_GROUPS],
+}
+
+impl<T: Real> Params<T> {
+    /// Zeros with the same shape as `other`.
+    pub fn zeros_like(other: &Params<T>) -> Self {
+        Self {
+            groups: std::array::from_fn(|g| vec![T::ZERO; other.groups[g].len()]),
+        }
+    }
+
+    /// Zeros like `other` except the hash group, left empty: a per-thread gradient accumulator (hash
+    /// gradients are scattered by whole levels instead).
+    pub fn zeros_like_without_hash(other: &Params<T>) -> Self {
+        let mut p = Self::zeros_like(other);
+        p.groups[Group::Hash as usize] = Vec::new();
+        p
+    }
+
+    /// A group.
+    pub fn get(&self, g: Group) -> &[T] {
+        &self.groups[g as usize]
+    }
+
+    /// A group, mutably.
+    pub fn get_mut(&mut self, g: Group) -> &mut [T] {
+        &mut self.groups[g as usize]
+    }
+
+    /// Sets every value to zero (in parallel; the hash group can hold millions).
+    pub fn fill_zero(&mut self) {
+        for g in &mut self.groups {
+            g.par_chunks_mut(1 << 16).for_each(|c| c.fill(T::ZERO));
+        }
+    }
+
+    /// Adds `other` group-wise; groups empty in `other` are skipped.
+    pub fn add_assign(&mut self, other: &Params<T>) {
+        for (a, b) in self.groups.iter_mut().zip(&other.groups) {
+            if !b.is_empty() {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += *y;
+                }
+            }
+        }
+    }
+
+    /// Total number of values.
+    pub fn len(&self) -> usize {
+        self.groups.iter().map(Vec::len).sum()
+    }
+
+    /// Whether every group is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
