@@ -8,6 +8,7 @@ pub mod camera;
 pub mod error;
 pub mod formats;
 pub mod image;
+pub mod mesh;
 pub mod metrics;
 pub mod obb;
 pub mod pose;
