@@ -1,0 +1,111 @@
+//! Where to put samples along a ray: uniform, stratified, depth-guided (RGB-D captures), hierarchical
+//! importance resampling from weights, and merging of sorted sample lists (several fields along one ray).
+//!
+//! Randomness comes from a caller's closure returning uniform numbers in `[0, 1)`, so any generator fits
+//! and tests can pass a deterministic one.
+
+/// `n` evenly spaced samples from `near` to `far`, both included (`n ≥ 2`).
+pub fn uniform(near: f32, far: f32, n: usize, out: &mut Vec<f32>) {
+    out.clear();
+    let step = (far - near) / (n.max(2) - 1) as f32;
+    out.extend((0..n).map(|k| near + k as f32 * step));
+}
+
+/// `n` stratified samples: one uniformly at random in each of `n` equal bins of `[near, far]`.
+pub fn stratified(
+    near: f32,
+    far: f32,
+    n: usize,
+    rng: &mut impl FnMut() -> f32,
+    out: &mut Vec<f32>,
+) {
+    out.clear();
+    let step = (far - near) / n as f32;
+    out.extend((0..n).map(|k| near + (k as f32 + rng()) * step));
+}
+
+/// Samples for a ray whose surface depth is known (RGB-D): `n_shell` stratified in
+/// `[depth − half_width, depth + half_width]` and `n_uniform` stratified over `[near, far]` (both clipped
+/// to `[near, far]`), merged in order.
+#[allow(clippy::too_many_arguments)]
+pub fn depth_guided(
+    near: f32,
+    far: f32,
+    depth: f32,
+    half_width: f32,
+    n_shell: usize,
+    n_uniform: usize,
+    rng: &mut impl FnMut() -> f32,
+    out: &mut Vec<f32>,
+) {
+    let (a, b) = (
+        (depth - half_width).max(near),
+        (depth + half_width).min(far),
+    );
+    let mut shell = Vec::with_capacity(n_shell);
+    if b > a {
+        stratified(a, b, n_shell, rng, &mut shell);
+    }
+    let mut coarse = Vec::with_capacity(n_uniform);
+    stratified(near, far, n_uniform, rng, &mut coarse);
+    merge_sorted(&shell, &coarse, out);
+}
+
+/// Hierarchical resampling: `n` new depths drawn from the piecewise-constant density whose interval
+/// `[t_i, t_{i+1}]` has mass `weights[i] + 1e-5` (the small floor keeps empty rays sampled), by inverse CDF.
+/// Returns them sorted in `out`; merge them with `t` via [`merge_sorted`].
+pub fn importance(
+    t: &[f32],
+    weights: &[f32],
+    n: usize,
+    rng: &mut impl FnMut() -> f32,
+    out: &mut Vec<f32>,
+) {
+    out.clear();
+    if t.len() < 2 {
+        return;
+    }
+    let mut cdf = Vec::with_capacity(weights.len() + 1);
+    cdf.push(0.0f32);
+    for w in weights {
+        cdf.push(cdf.last().copied().unwrap_or(0.0) + w.max(0.0) + 1e-5);
+    }
+    let total = *cdf.last().expect("cdf has a first entry");
+    // Stratified targets keep the new samples spread over the CDF and already sorted.
+    let mut bin = 0;
+    for k in 0..n {
+        let u = (k as f32 + rng()) / n as f32 * total;
+        while bin + 1 < weights.len() && cdf[bin + 1] < u {
+            bin += 1;
+        }
+        let span = (cdf[bin + 1] - cdf[bin]).max(1e-12);
+        let f = ((u - cdf[bin]) / span).clamp(0.0, 1.0);
+        out.push(t[bin] + f * (t[bin + 1] - t[bin]));
+    }
+}
+
+/// Merges two sorted lists into `out` (sorted).
+pub fn merge_sorted(a: &[f32], b: &[f32], out: &mut Vec<f32>) {
+    out.clear();
+    out.reserve(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() || j < b.len() {
+        if j == b.len() || (i < a.len() && a[i] <= b[j]) {
+            out.push(a[i]);
+            i += 1;
+        } else {
+            out.push(b[j]);
+            j += 1;
+        }
+    }
+}
+
+/// Merges the sorted sample lists of several fields along one ray into one order by `t`: each entry is
+/// `(t, field, index within that field's list)`. Multi-object compositing walks this order.
+pub fn merge_by_t(lists: &[&[f32]], out: &mut Vec<(f32, usize, usize)>) {
+    out.clear();
+    for (f, list) in lists.iter().enumerate() {
+        out.extend(list.iter().enumerate().map(|(i, t)| (*t, f, i)));
+    }
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+}
