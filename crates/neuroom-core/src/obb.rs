@@ -366,6 +366,33 @@ mod tests {
     }
 
     #[test]
+    fn nearly_coincident_boxes_are_stable() {
+        let mut rng = Pcg64::seed_from_u64(8);
+        for angle in [1e-5, 1e-8, 1e-11, 0.0] {
+            let a = random_box(&mut rng);
+            let axis = random_rotation(&mut rng).x_axis;
+            let turn = Pose::new(DMat3::from_axis_angle(axis, angle), DVec3::splat(angle));
+            let b = OrientedBox::new(a.pose.compose(&turn), a.size);
+            let iou = a.iou(&b);
+            assert!(
+                (0.0..=1.0).contains(&iou) && 1.0 - iou < 1e-4,
+                "angle {angle}: IoU {iou}"
+            );
+            assert!((iou - b.iou(&a)).abs() < 1e-9);
+        }
+        // A box standing on another, turned about z: they touch along a face only.
+        let lower = aabb([0.0, 0.0, 0.5], [1.0, 1.0, 1.0]);
+        for yaw in [0.0, 0.3, 1e-9] {
+            let upper = OrientedBox::new(
+                Pose::from_yaw_translation(yaw, DVec3::new(0.1, 0.0, 1.2)),
+                DVec3::new(0.4, 0.3, 0.4),
+            );
+            assert!(lower.intersection_volume(&upper).abs() < 1e-12, "yaw {yaw}");
+            assert!(upper.intersection_volume(&lower).abs() < 1e-12, "yaw {yaw}");
+        }
+    }
+
+    #[test]
     fn random_rotated_pairs_match_monte_carlo() {
         let mut rng = Pcg64::seed_from_u64(5);
         let mut checked = 0;
