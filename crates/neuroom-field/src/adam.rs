@@ -59,11 +59,10 @@ impl Adam {
         let t = self.step as i32;
         let c1 = 1.0 / (1.0 - beta1.powi(t));
         let c2 = 1.0 / (1.0 - beta2.powi(t));
-        for g in 0..NUM_GROUPS {
-            if lr[g] == 0.0 {
+        for (g, &rate) in lr.iter().enumerate() {
+            if rate == 0.0 {
                 continue;
             }
-            let rate = lr[g];
             params.groups[g]
                 .par_chunks_mut(1 << 14)
                 .zip(grads.groups[g].par_chunks(1 << 14))

@@ -197,6 +197,7 @@ impl Mlp {
     /// Adds parameter gradients into `grads` (layout of the parameters) when given. With `d_input = Some((buf, cols))`,
     /// writes the gradient of the first `cols` input columns into `buf` (`n × cols`): callers ask only for
     /// the columns that need it.
+    #[allow(clippy::too_many_arguments)] // the stage's inputs, saved activations and both gradient outputs
     pub fn backward<T: Real>(
         &self,
         params: &[T],

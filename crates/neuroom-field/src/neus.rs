@@ -602,8 +602,8 @@ impl<T: Real> NeusField<T> {
         let (g, cd) = (self.config.geometry_features, self.config.code_dim);
         let (si, so) = (self.sdf_in_dim(), 1 + g);
         ws.d_out[..n * so].fill(T::ZERO);
-        for p in 0..n {
-            ws.d_out[p * so] = d_sdf[p];
+        for (p, d) in d_sdf[..n].iter().enumerate() {
+            ws.d_out[p * so] = *d;
         }
         if let Some(d_rgb) = d_rgb {
             assert_eq!(

@@ -406,7 +406,7 @@ fn analytic_normal_matches_finite_differences() {
     field.forward(&case.points, &[], &codes, Outputs::SdfGradient, &mut tape);
     let mut g = vec![[0.0; 3]; 5];
     tape.copy_gradient(&mut g);
-    for p in 0..5 {
+    for (p, gp) in g.iter().enumerate() {
         for a in 0..3 {
             let sdf_at = |d: f64| {
                 let mut x = case.points[p];
@@ -419,7 +419,7 @@ fn analytic_normal_matches_finite_differences() {
             };
             assert_close(
                 &format!("∇f[{p}][{a}]"),
-                g[p][a],
+                gp[a],
                 (sdf_at(EPS) - sdf_at(-EPS)) / (2.0 * EPS),
             );
         }

@@ -64,14 +64,22 @@ pub fn neus_alphas_backward<T: Real>(sdf: &[T], inv_s: T, d_alpha: &[T], d_sdf: 
     d_s
 }
 
+/// Weights and transmittances of a composited ray, kept for its backward pass.
+#[derive(Clone, Debug, Default)]
+pub struct CompositeTape<T> {
+    /// `w_i = T_i α_i`.
+    pub weights: Vec<T>,
+    /// `T_i = Π_{j<i} (1 − α_j)`.
+    pub transmittance: Vec<T>,
+}
+
 /// Composites intervals sorted by depth: opacities `alpha`, colours `rgb` and depths `t` (one per interval).
-/// Writes the weights `w_i = T_i α_i` and transmittances `T_i` (kept for the backward pass).
+/// Fills `tape` with the weights and transmittances.
 pub fn composite<T: Real>(
     alpha: &[T],
     rgb: &[[T; 3]],
     t: &[T],
-    weights: &mut [T],
-    transmittance: &mut [T],
+    tape: &mut CompositeTape<T>,
 ) -> RayOutput<T> {
     let mut out = RayOutput {
         rgb: [T::ZERO; 3],
@@ -79,12 +87,14 @@ pub fn composite<T: Real>(
         opacity: T::ZERO,
     };
     let mut trans = T::ONE;
+    tape.weights.clear();
+    tape.transmittance.clear();
     for i in 0..alpha.len() {
         let w = trans * alpha[i];
-        transmittance[i] = trans;
-        weights[i] = w;
-        for c in 0..3 {
-            out.rgb[c] += w * rgb[i][c];
+        tape.transmittance.push(trans);
+        tape.weights.push(w);
+        for (o, c) in out.rgb.iter_mut().zip(rgb[i]) {
+            *o += w * c;
         }
         out.depth += w * t[i];
         out.opacity += w;
@@ -100,8 +110,7 @@ pub fn composite_backward<T: Real>(
     alpha: &[T],
     rgb: &[[T; 3]],
     t: &[T],
-    weights: &[T],
-    transmittance: &[T],
+    tape: &CompositeTape<T>,
     d_out: &RayOutput<T>,
     d_alpha: &mut [T],
     d_rgb: &mut [[T; 3]],
@@ -113,10 +122,10 @@ pub fn composite_backward<T: Real>(
             + d_out.rgb[2] * rgb[i][2]
             + d_out.depth * t[i]
             + d_out.opacity;
-        d_alpha[i] = transmittance[i] * (g - suffix);
+        d_alpha[i] = tape.transmittance[i] * (g - suffix);
         suffix = g * alpha[i] + (T::ONE - alpha[i]) * suffix;
-        for c in 0..3 {
-            d_rgb[i][c] += weights[i] * d_out.rgb[c];
+        for (d, o) in d_rgb[i].iter_mut().zip(d_out.rgb) {
+            *d += tape.weights[i] * o;
         }
     }
 }
@@ -126,9 +135,8 @@ pub fn composite_backward<T: Real>(
 pub struct RayTape<T> {
     /// Interval opacities.
     pub alpha: Vec<T>,
-    /// Interval weights.
-    pub weights: Vec<T>,
-    transmittance: Vec<T>,
+    /// Interval weights and transmittances.
+    pub composite: CompositeTape<T>,
     mid_rgb: Vec<[T; 3]>,
     mid_t: Vec<T>,
     d_alpha: Vec<T>,
@@ -147,8 +155,6 @@ pub fn render_ray<T: Real>(
     let m = t.len().saturating_sub(1);
     let half = T::from_f64(0.5);
     tape.alpha.resize(m, T::ZERO);
-    tape.weights.resize(m, T::ZERO);
-    tape.transmittance.resize(m, T::ZERO);
     tape.mid_rgb.clear();
     tape.mid_rgb
         .extend((0..m).map(|i| std::array::from_fn(|c| half * (rgb[i][c] + rgb[i + 1][c]))));
@@ -158,13 +164,7 @@ pub fn render_ray<T: Real>(
         return RayOutput::default();
     }
     neus_alphas(sdf, inv_s, &mut tape.alpha);
-    composite(
-        &tape.alpha,
-        &tape.mid_rgb,
-        &tape.mid_t,
-        &mut tape.weights,
-        &mut tape.transmittance,
-    )
+    composite(&tape.alpha, &tape.mid_rgb, &tape.mid_t, &mut tape.composite)
 }
 
 /// Backward of [`render_ray`]: adds `∂loss/∂f` to `d_sdf` and `∂loss/∂c` to `d_rgb` (one per sample) and
@@ -188,8 +188,7 @@ pub fn render_ray_backward<T: Real>(
         &tape.alpha,
         &tape.mid_rgb,
         &tape.mid_t,
-        &tape.weights,
-        &tape.transmittance,
+        &tape.composite,
         d_out,
         &mut tape.d_alpha,
         &mut tape.d_mid_rgb,
