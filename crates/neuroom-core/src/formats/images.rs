@@ -66,7 +66,7 @@ struct Samples {
 pub fn read_rgb(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbImage>> {
     let s = decode_colour(path.as_ref())?;
     let mut conversions = s.conversions.clone();
-    if s.channels % 2 == 0 {
+    if matches!(s.channels, 2 | 4) {
         conversions.push(Conversion::AlphaDropped);
     }
     let data = s
@@ -94,7 +94,7 @@ pub fn read_rgb(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbImage>> {
 pub fn read_rgba(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbaImage>> {
     let s = decode_colour(path.as_ref())?;
     let mut conversions = s.conversions.clone();
-    if s.channels % 2 == 1 {
+    if matches!(s.channels, 1 | 3) {
         conversions.push(Conversion::OpaqueAlphaAdded);
     }
     let data = s

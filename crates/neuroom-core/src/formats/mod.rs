@@ -15,8 +15,8 @@ pub mod transforms;
 pub use arrangement::{ArrangedObject, Arrangement, read_arrangement, write_arrangement};
 pub use envmap::{EnvMap, read_envmap};
 pub use images::{
-    Conversion, Decoded, MAX_IMAGE_SIDE, check_same_size, read_depth, read_mask, read_rgb,
-    read_rgba, write_depth, write_mask, write_rgb, write_rgba,
+    Conversion, Decoded, MAX_IMAGE_SIDE, check_same_size, read_depth, read_image_size, read_mask,
+    read_rgb, read_rgba, write_depth, write_mask, write_rgb, write_rgba,
 };
 pub use room::{BackgroundSpec, Room, RoomObject, read_room, write_room};
 pub use transforms::{Capture, Frame, read_capture, write_capture};
