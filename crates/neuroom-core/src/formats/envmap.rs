@@ -9,6 +9,8 @@
 //! ```
 //! so the centre column faces +x, the column a quarter from the left faces +y, row 0 is the zenith (+z) and
 //! the last row the nadir. The mapping is [`Equirect`]'s, which is why maps must be twice as wide as high.
+//! It is also Blender's world mapping of an equirectangular image, so maps lit in Blender (e.g. the captures
+//! of `shared/data/blender-lite`) read the same way here.
 //! To turn a map about z, rotate the direction before [`EnvMap::sample`].
 //!
 //! # Files

@@ -120,6 +120,12 @@ pub fn read_rgba(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbaImage>> {
 /// Reads a 16-bit single-channel depth PNG: metres = value × `unit` (0 stays 0 = no depth).
 pub fn read_depth(path: impl AsRef<Path>, unit: f64) -> FormatResult<DepthImage> {
     let path = path.as_ref();
+    if !super::json::is_positive(unit) {
+        return Err(FormatError::file(
+            path,
+            format!("depth unit must be a positive number, found {unit}"),
+        ));
+    }
     let bytes = read_bytes(path)?;
     let mut reader = png_reader(path, &bytes, Transformations::IDENTITY)?;
     let (color, depth) = (reader.info().color_type, reader.info().bit_depth);

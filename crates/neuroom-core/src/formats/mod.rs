@@ -1,6 +1,6 @@
 //! The on-disk formats of `FORMAT.md`: rooms, captures, arrangements, images and environment maps.
 //!
-//! Every reader validates what it reads and fails with a [`FormatError`](crate::FormatError) naming the
+//! Every reader validates what it reads and fails with a [`FormatError`] naming the
 //! file and the field at fault; readers ignore fields they do not know. Every writer goes through
 //! [`atomic_write`], so a crash never leaves a half-written file behind.
 
