@@ -3,8 +3,9 @@
 //! [`JsonObject`] is a cursor on one JSON object that knows the file it came from and its own dotted
 //! position (`frames[3]`), so every getter can report
 //! ``file: field `frames[3].fl_x`: expected a positive number, found -2``. The `as_*` functions turn
-//! one JSON value into a typed value or say what is wrong. A field holding `null` counts as absent. Unknown fields are never an error: [`JsonObject::unknown_fields`]
-//! hands them back so writers can preserve them.
+//! one JSON value into a typed value or say what is wrong. A field holding `null` counts as absent.
+//! Unknown fields are never an error: [`JsonObject::unknown_fields`] hands them back so writers can
+//! preserve them.
 
 use crate::error::{FormatError, FormatResult};
 use crate::pose::Pose;
