@@ -2,7 +2,6 @@
 //! noise, stripes) evaluated from UVs in metres, and decoded image textures from OBJ `map_Kd`.
 //! All colours are linear RGB.
 
-use std::path::Path;
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
@@ -219,9 +218,9 @@ fn fbm(p: Vec2, seed: u32, octaves: u32) -> f32 {
 }
 
 impl ImageTexture {
-    /// Decodes a PNG or JPEG file (sRGB) into linear RGB.
-    pub fn load(path: &Path) -> Result<Self, image::ImageError> {
-        let img = image::open(path)?.to_rgb8();
+    /// Decodes PNG or JPEG bytes (sRGB) into linear RGB.
+    pub fn decode(bytes: &[u8]) -> Result<Self, image::ImageError> {
+        let img = image::load_from_memory(bytes)?.to_rgb8();
         let texels = img
             .pixels()
             .map(|p| Vec3::from_array(p.0.map(|c| srgb_to_linear(c as f32 / 255.0))))
