@@ -55,6 +55,9 @@ pub struct HashGrid {
     num_params: usize,
 }
 
+/// Largest supported `F` (features per level).
+pub const MAX_FEATURES: usize = 8;
+
 const PRIME_Y: u32 = 2_654_435_761;
 const PRIME_Z: u32 = 805_459_861;
 
@@ -123,40 +126,40 @@ impl HashGrid {
         mut jac: Option<&mut [T]>,
     ) {
         let f = self.config.features;
+        assert!(
+            f <= MAX_FEATURES,
+            "at most {MAX_FEATURES} features per level"
+        );
         let width = self.config.output_dim();
         for (l, level) in self.levels.iter().enumerate() {
-            let on = l < active;
+            let res = T::from_usize(level.resolution);
+            let entries = &table[level.offset..level.offset + level.entries * f];
             for (p, x) in u.iter().enumerate() {
-                let row = &mut out[p * stride + l * f..p * stride + (l + 1) * f];
-                row.fill(T::ZERO);
-                let jrow = jac
-                    .as_deref_mut()
-                    .map(|j| &mut j[(p * width + l * f) * 3..(p * width + (l + 1) * f) * 3]);
-                let Some(jrow) = jrow else {
-                    if on {
-                        let c = self.cell(level, x);
-                        c.for_corners(|idx, w, _| {
-                            let e = &table[level.offset + idx * f..level.offset + idx * f + f];
-                            for (o, v) in row.iter_mut().zip(e) {
-                                *o += w * *v;
-                            }
-                        });
-                    }
-                    continue;
-                };
-                jrow.fill(T::ZERO);
-                if on {
-                    let c = self.cell(level, x);
-                    let res = T::from_usize(level.resolution);
-                    c.for_corners(|idx, w, dw| {
-                        let e = &table[level.offset + idx * f..level.offset + idx * f + f];
-                        for (k, v) in e.iter().enumerate() {
-                            row[k] += w * *v;
-                            for a in 0..3 {
-                                jrow[k * 3 + a] += dw[a] * res * *v;
+                // Accumulate in registers, then store once.
+                let mut acc = [T::ZERO; MAX_FEATURES];
+                let mut dacc = [[T::ZERO; 3]; MAX_FEATURES];
+                if l < active {
+                    let want_jac = jac.is_some();
+                    self.cell(level, x).for_corners(|idx, w, dw| {
+                        let e = &entries[idx * f..idx * f + f];
+                        for k in 0..f {
+                            acc[k] += w * e[k];
+                            if want_jac {
+                                for a in 0..3 {
+                                    dacc[k][a] += dw[a] * e[k];
+                                }
                             }
                         }
                     });
+                }
+                out[p * stride + l * f..p * stride + (l + 1) * f].copy_from_slice(&acc[..f]);
+                if let Some(j) = jac.as_deref_mut() {
+                    let jrow = &mut j[(p * width + l * f) * 3..(p * width + (l + 1) * f) * 3];
+                    for k in 0..f {
+                        for a in 0..3 {
+                            jrow[k * 3 + a] = dacc[k][a] * res;
+                        }
+                    }
                 }
             }
         }
@@ -221,7 +224,8 @@ impl HashGrid {
         let mut frac = [T::ZERO; 3];
         for a in 0..3 {
             let pos = (x[a] * resf).max(T::ZERO).min(resf);
-            let i = pos.floor().to_usize().min(res - 1);
+            // `pos ≥ 0`, so truncation is the floor.
+            let i = pos.to_usize().min(res - 1);
             base[a] = i as u32;
             frac[a] = pos - T::from_usize(i);
         }
