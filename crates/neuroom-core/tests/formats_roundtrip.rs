@@ -122,7 +122,9 @@ fn frame(i: usize, camera: Pinhole) -> Frame {
     Frame {
         image: format!("images/{i:04}.png").into(),
         depth: Some(format!("depths/{i:04}.png").into()),
-        instance: i.is_multiple_of(2).then(|| format!("masks/{i:04}.png").into()),
+        instance: i
+            .is_multiple_of(2)
+            .then(|| format!("masks/{i:04}.png").into()),
         camera,
         camera_to_world: pose(0.3 * i as f64, -0.2, 0.1, [1.0, 2.0 - i as f64, 1.5]),
         light: (i == 1).then(|| "lamp_on".to_string()),

@@ -81,15 +81,6 @@ impl<'a> JsonObject<'a> {
         FormatError::field(self.file, self.field_name(key), message)
     }
 
-    /// An error about this object as a whole (named by its own position, or the file at the top level).
-    pub fn self_error(&self, message: impl Into<String>) -> FormatError {
-        if self.at.is_empty() {
-            FormatError::file(self.file, message)
-        } else {
-            FormatError::field(self.file, self.at.clone(), message)
-        }
-    }
-
     /// The value of `key`, or `None` when the key is absent or `null`.
     pub fn get(&self, key: &str) -> Option<&'a Value> {
         self.map.get(key).filter(|v| !v.is_null())
