@@ -1,1 +1,32 @@
-fn main() {}
+//! The `neuroom` command: a thin layer over the `neuroom` library that parses arguments, shows progress
+//! and turns errors into messages and exit codes.
+
+mod commands;
+
+use clap::{Parser, Subcommand};
+
+/// Understand a known room from one 360° photo, and render it from anywhere.
+#[derive(Parser)]
+#[command(name = "neuroom", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Info(commands::info::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info(args) => commands::info::run(args),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        // Every failure reported here is about the input or the environment: exit code 2 (panics are bugs
+        // and keep Rust's own code).
+        std::process::exit(2);
+    }
+}

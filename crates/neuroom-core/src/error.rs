@@ -17,12 +17,24 @@ pub struct FormatError {
 impl FormatError {
     /// An error about the file as a whole (missing, unreadable, undecodable).
     pub fn file(path: impl AsRef<Path>, message: impl Into<String>) -> Self {
-        Self { path: path.as_ref().to_path_buf(), field: None, message: message.into() }
+        Self {
+            path: path.as_ref().to_path_buf(),
+            field: None,
+            message: message.into(),
+        }
     }
 
     /// An error about one field of the file.
-    pub fn field(path: impl AsRef<Path>, field: impl Into<String>, message: impl Into<String>) -> Self {
-        Self { path: path.as_ref().to_path_buf(), field: Some(field.into()), message: message.into() }
+    pub fn field(
+        path: impl AsRef<Path>,
+        field: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        Self {
+            path: path.as_ref().to_path_buf(),
+            field: Some(field.into()),
+            message: message.into(),
+        }
     }
 }
 

@@ -23,7 +23,11 @@ pub type MaskImage = Image<u16>;
 impl<T: Clone> Image<T> {
     /// An image filled with one value.
     pub fn filled(width: u32, height: u32, value: T) -> Self {
-        Self { width, height, data: vec![value; width as usize * height as usize] }
+        Self {
+            width,
+            height,
+            data: vec![value; width as usize * height as usize],
+        }
     }
 
     /// The pixel at column `u`, row `v`.
@@ -45,19 +49,31 @@ impl<T: Clone> Image<T> {
 
     /// Applies `f` to every pixel, keeping the size.
     pub fn map<U>(&self, f: impl Fn(&T) -> U) -> Image<U> {
-        Image { width: self.width, height: self.height, data: self.data.iter().map(f).collect() }
+        Image {
+            width: self.width,
+            height: self.height,
+            data: self.data.iter().map(f).collect(),
+        }
     }
 }
 
 /// sRGB transfer function: encoded value in [0, 1] to linear light.
 pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 /// Inverse sRGB transfer function: linear light to encoded value (clamped to [0, 1]).
 pub fn linear_to_srgb(c: f32) -> f32 {
     let c = c.clamp(0.0, 1.0);
-    if c <= 0.003_130_8 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+    if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 #[cfg(test)]

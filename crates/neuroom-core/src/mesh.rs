@@ -6,7 +6,7 @@
 //! scalar types for the vertex position and faces given as lists (triangles or convex polygons, which are
 //! fanned into triangles); other vertex and element properties are skipped.
 
-use std::io::Write;
+use std::io::Write as _;
 use std::path::Path;
 
 use glam::Vec3;
@@ -28,7 +28,11 @@ impl TriMesh {
     /// Axis-aligned bounds `(min, max)`; `None` for an empty mesh.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let first = *self.positions.first()?;
-        Some(self.positions.iter().fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
+        Some(
+            self.positions
+                .iter()
+                .fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))),
+        )
     }
 
     /// Total surface area.
@@ -57,7 +61,9 @@ impl TriMesh {
             .map(|k| {
                 let (r0, r1, r2) = low_discrepancy(k);
                 let target = r0 * total;
-                let ti = cumulative.partition_point(|&c| c < target).min(self.triangles.len() - 1);
+                let ti = cumulative
+                    .partition_point(|&c| c < target)
+                    .min(self.triangles.len() - 1);
                 let [a, b, c] = self.triangles[ti].map(|i| self.positions[i as usize]);
                 let (mut s, mut t) = (r1 as f32, r2 as f32);
                 if s + t > 1.0 {
@@ -78,7 +84,8 @@ impl TriMesh {
         } else {
             self.colors.clear();
         }
-        self.triangles.extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
     }
 }
 
@@ -94,10 +101,17 @@ fn low_discrepancy(k: usize) -> (f64, f64, f64) {
 pub fn write_ply(path: &Path, mesh: &TriMesh) -> FormatResult<()> {
     let colored = !mesh.colors.is_empty();
     if colored && mesh.colors.len() != mesh.positions.len() {
-        return Err(FormatError::file(path, "mesh has a colour count different from its vertex count"));
+        return Err(FormatError::file(
+            path,
+            "mesh has a colour count different from its vertex count",
+        ));
     }
     let mut bytes = Vec::with_capacity(64 + mesh.positions.len() * 15 + mesh.triangles.len() * 13);
-    let color_header = if colored { "property uchar red\nproperty uchar green\nproperty uchar blue\n" } else { "" };
+    let color_header = if colored {
+        "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    } else {
+        ""
+    };
     write!(
         bytes,
         "ply\nformat binary_little_endian 1.0\ncomment neuroom mesh, metres\nelement vertex {}\n\
@@ -121,19 +135,7 @@ pub fn write_ply(path: &Path, mesh: &TriMesh) -> FormatResult<()> {
             bytes.extend_from_slice(&(*i as i32).to_le_bytes());
         }
     }
-    write_atomically(path, &bytes)
-}
-
-/// Writes bytes to `path` through a temporary file in the same folder and a rename, so a reader never
-/// sees a half-written file.
-fn write_atomically(path: &Path, bytes: &[u8]) -> FormatResult<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().ok_or_else(|| FormatError::file(path, "not a file path"))?;
-    let tmp = dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id()));
-    let io = |e: std::io::Error| FormatError::file(path, format!("cannot write: {e}"));
-    let mut f = std::fs::File::create(&tmp).map_err(io)?;
-    f.write_all(bytes).and_then(|_| f.sync_all()).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    crate::formats::atomic_write(path, &bytes)
 }
 
 /// The scalar types PLY allows, with their size in bytes.
@@ -205,20 +207,28 @@ struct Element {
 
 /// Reads a PLY mesh (ASCII or binary little-endian). Vertex colours are read when present.
 pub fn read_ply(path: &Path) -> FormatResult<TriMesh> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::file(path, format!("cannot read: {e}")))?;
+    let bytes =
+        std::fs::read(path).map_err(|e| FormatError::file(path, format!("cannot read: {e}")))?;
     let (header, body_start) = split_header(path, &bytes)?;
     let (format, elements) = parse_header(path, &header)?;
     let body = &bytes[body_start..];
     match format.as_str() {
         "ascii" => read_ascii_body(path, body, &elements),
         "binary_little_endian" => read_binary_body(path, body, &elements),
-        other => Err(FormatError::field(path, "format", format!("unsupported PLY format `{other}`"))),
+        other => Err(FormatError::field(
+            path,
+            "format",
+            format!("unsupported PLY format `{other}`"),
+        )),
     }
 }
 
 fn split_header(path: &Path, bytes: &[u8]) -> FormatResult<(String, usize)> {
     if !bytes.starts_with(b"ply") {
-        return Err(FormatError::file(path, "not a PLY file (missing `ply` magic)"));
+        return Err(FormatError::file(
+            path,
+            "not a PLY file (missing `ply` magic)",
+        ));
     }
     let marker = b"end_header";
     let pos = bytes
@@ -244,7 +254,9 @@ fn parse_header(path: &Path, header: &str) -> FormatResult<(String, Vec<Element>
             ["format", f, _] => format = Some(f.to_string()),
             ["element", name, count] => elements.push(Element {
                 name: name.to_string(),
-                count: count.parse().map_err(|_| FormatError::field(path, "element", format!("bad count `{count}`")))?,
+                count: count.parse().map_err(|_| {
+                    FormatError::field(path, "element", format!("bad count `{count}`"))
+                })?,
                 properties: Vec::new(),
             }),
             ["property", "list", c, k, name] => {
@@ -256,22 +268,30 @@ fn parse_header(path: &Path, header: &str) -> FormatResult<(String, Vec<Element>
                 last_element(path, &mut elements)?.properties.push(prop);
             }
             ["property", k, name] => {
-                let prop = Property { name: name.to_string(), kind: parse_scalar(path, k)?, list_count: None };
+                let prop = Property {
+                    name: name.to_string(),
+                    kind: parse_scalar(path, k)?,
+                    list_count: None,
+                };
                 last_element(path, &mut elements)?.properties.push(prop);
             }
             _ => {}
         }
     }
-    let format = format.ok_or_else(|| FormatError::field(path, "format", "PLY header names no format"))?;
+    let format =
+        format.ok_or_else(|| FormatError::field(path, "format", "PLY header names no format"))?;
     Ok((format, elements))
 }
 
 fn parse_scalar(path: &Path, name: &str) -> FormatResult<Scalar> {
-    Scalar::parse(name).ok_or_else(|| FormatError::field(path, "property", format!("unknown PLY type `{name}`")))
+    Scalar::parse(name)
+        .ok_or_else(|| FormatError::field(path, "property", format!("unknown PLY type `{name}`")))
 }
 
 fn last_element<'a>(path: &Path, elements: &'a mut [Element]) -> FormatResult<&'a mut Element> {
-    elements.last_mut().ok_or_else(|| FormatError::field(path, "property", "property before any element"))
+    elements
+        .last_mut()
+        .ok_or_else(|| FormatError::field(path, "property", "property before any element"))
 }
 
 /// Indices of x, y, z and optional red, green, blue in the vertex element.
@@ -279,7 +299,11 @@ fn vertex_layout(path: &Path, vertex: &Element) -> FormatResult<([usize; 3], Opt
     let find = |n: &str| vertex.properties.iter().position(|p| p.name == n);
     let xyz = ["x", "y", "z"].map(find);
     let [Some(x), Some(y), Some(z)] = xyz else {
-        return Err(FormatError::field(path, "vertex", "vertices lack x, y or z"));
+        return Err(FormatError::field(
+            path,
+            "vertex",
+            "vertices lack x, y or z",
+        ));
     };
     let rgb = match ["red", "green", "blue"].map(find) {
         [Some(r), Some(g), Some(b)] => Some([r, g, b]),
@@ -291,10 +315,15 @@ fn vertex_layout(path: &Path, vertex: &Element) -> FormatResult<([usize; 3], Opt
 /// Turns one face's index list into triangles (fan), checking the indices.
 fn push_face(path: &Path, mesh: &mut TriMesh, idx: &[f64], n_vertices: usize) -> FormatResult<()> {
     if idx.iter().any(|&i| i < 0.0 || i as usize >= n_vertices) {
-        return Err(FormatError::field(path, "face", "vertex index out of range"));
+        return Err(FormatError::field(
+            path,
+            "face",
+            "vertex index out of range",
+        ));
     }
     for k in 1..idx.len().saturating_sub(1) {
-        mesh.triangles.push([idx[0] as u32, idx[k] as u32, idx[k + 1] as u32]);
+        mesh.triangles
+            .push([idx[0] as u32, idx[k] as u32, idx[k + 1] as u32]);
     }
     Ok(())
 }
@@ -307,8 +336,17 @@ fn color_scale(p: &Property) -> f32 {
     }
 }
 
-fn store_vertex(mesh: &mut TriMesh, values: &[f64], xyz: [usize; 3], rgb: Option<([usize; 3], f32)>) {
-    mesh.positions.push(Vec3::new(values[xyz[0]] as f32, values[xyz[1]] as f32, values[xyz[2]] as f32));
+fn store_vertex(
+    mesh: &mut TriMesh,
+    values: &[f64],
+    xyz: [usize; 3],
+    rgb: Option<([usize; 3], f32)>,
+) {
+    mesh.positions.push(Vec3::new(
+        values[xyz[0]] as f32,
+        values[xyz[1]] as f32,
+        values[xyz[2]] as f32,
+    ));
     if let Some((c, s)) = rgb {
         mesh.colors.push(c.map(|i| values[i] as f32 * s));
     }
@@ -318,13 +356,20 @@ fn read_ascii_body(path: &Path, body: &[u8], elements: &[Element]) -> FormatResu
     let text = String::from_utf8_lossy(body);
     let mut tokens = text.split_whitespace();
     let mut next = || -> FormatResult<f64> {
-        let t = tokens.next().ok_or_else(|| FormatError::file(path, "PLY body ends early"))?;
-        t.parse().map_err(|_| FormatError::file(path, format!("bad number `{t}` in PLY body")))
+        let t = tokens
+            .next()
+            .ok_or_else(|| FormatError::file(path, "PLY body ends early"))?;
+        t.parse()
+            .map_err(|_| FormatError::file(path, format!("bad number `{t}` in PLY body")))
     };
     let mut mesh = TriMesh::default();
     let mut n_vertices = 0;
     for el in elements {
-        let layout = if el.name == "vertex" { Some(vertex_layout(path, el)?) } else { None };
+        let layout = if el.name == "vertex" {
+            Some(vertex_layout(path, el)?)
+        } else {
+            None
+        };
         for _ in 0..el.count {
             let mut values = Vec::with_capacity(el.properties.len());
             let mut face = Vec::new();
@@ -339,7 +384,12 @@ fn read_ascii_body(path: &Path, body: &[u8], elements: &[Element]) -> FormatResu
                 }
             }
             if let Some((xyz, rgb)) = layout {
-                store_vertex(&mut mesh, &values, xyz, rgb.map(|c| (c, color_scale(&el.properties[c[0]]))));
+                store_vertex(
+                    &mut mesh,
+                    &values,
+                    xyz,
+                    rgb.map(|c| (c, color_scale(&el.properties[c[0]]))),
+                );
             } else if el.name == "face" {
                 push_face(path, &mut mesh, &face, n_vertices)?;
             }
@@ -354,14 +404,20 @@ fn read_ascii_body(path: &Path, body: &[u8], elements: &[Element]) -> FormatResu
 fn read_binary_body(path: &Path, body: &[u8], elements: &[Element]) -> FormatResult<TriMesh> {
     let mut at = 0usize;
     let mut take = |n: usize| -> FormatResult<&[u8]> {
-        let s = body.get(at..at + n).ok_or_else(|| FormatError::file(path, "PLY body is truncated"))?;
+        let s = body
+            .get(at..at + n)
+            .ok_or_else(|| FormatError::file(path, "PLY body is truncated"))?;
         at += n;
         Ok(s)
     };
     let mut mesh = TriMesh::default();
     let mut n_vertices = 0;
     for el in elements {
-        let layout = if el.name == "vertex" { Some(vertex_layout(path, el)?) } else { None };
+        let layout = if el.name == "vertex" {
+            Some(vertex_layout(path, el)?)
+        } else {
+            None
+        };
         for _ in 0..el.count {
             let mut values = Vec::with_capacity(el.properties.len());
             let mut face = Vec::new();
@@ -371,13 +427,21 @@ fn read_binary_body(path: &Path, body: &[u8], elements: &[Element]) -> FormatRes
                     Some(c) => {
                         let n = c.read_le(take(c.size())?) as usize;
                         let raw = take(n * p.kind.size())?;
-                        face = raw.chunks(p.kind.size()).map(|b| p.kind.read_le(b)).collect();
+                        face = raw
+                            .chunks(p.kind.size())
+                            .map(|b| p.kind.read_le(b))
+                            .collect();
                         values.push(f64::NAN);
                     }
                 }
             }
             if let Some((xyz, rgb)) = layout {
-                store_vertex(&mut mesh, &values, xyz, rgb.map(|c| (c, color_scale(&el.properties[c[0]]))));
+                store_vertex(
+                    &mut mesh,
+                    &values,
+                    xyz,
+                    rgb.map(|c| (c, color_scale(&el.properties[c[0]]))),
+                );
             } else if el.name == "face" {
                 push_face(path, &mut mesh, &face, n_vertices)?;
             }
@@ -396,7 +460,12 @@ mod tests {
     fn quad() -> TriMesh {
         TriMesh {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
-            colors: vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]],
+            colors: vec![
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [1.0, 1.0, 1.0],
+            ],
             triangles: vec![[0, 1, 2], [0, 2, 3]],
         }
     }
@@ -436,12 +505,20 @@ mod tests {
         let mut bad = quad();
         bad.triangles.push([0, 1, 9]);
         write_ply(&path, &bad).unwrap();
-        assert!(read_ply(&path).unwrap_err().to_string().contains("out of range"));
+        assert!(
+            read_ply(&path)
+                .unwrap_err()
+                .to_string()
+                .contains("out of range")
+        );
     }
 
     #[test]
     fn reads_the_blender_room_meshes() {
-        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/blender-lite/meshes/stool.ply");
+        let root = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../../shared/data/blender-lite/meshes/stool.ply"
+        );
         let path = Path::new(root);
         if !path.exists() {
             eprintln!("skipped: {root} is absent");
@@ -451,14 +528,21 @@ mod tests {
         let (lo, hi) = m.bounds().unwrap();
         let size = hi - lo;
         // room.json gives the stool's size as 0.361 × 0.361 × 0.78 m, centred on its box.
-        assert!((size - Vec3::new(0.361, 0.361, 0.78)).abs().max_element() < 0.01, "{size}");
+        assert!(
+            (size - Vec3::new(0.361, 0.361, 0.78)).abs().max_element() < 0.01,
+            "{size}"
+        );
         assert!(((lo + hi) * 0.5).abs().max_element() < 0.01);
     }
 
     #[test]
     fn surface_samples_lie_on_the_mesh_and_cover_it() {
         let pts = quad().sample_surface(1000);
-        assert!(pts.iter().all(|p| p.z == 0.0 && p.x >= 0.0 && p.x <= 1.0 && p.y >= 0.0 && p.y <= 1.0));
+        assert!(pts.iter().all(|p| p.z == 0.0
+            && p.x >= 0.0
+            && p.x <= 1.0
+            && p.y >= 0.0
+            && p.y <= 1.0));
         let left = pts.iter().filter(|p| p.x < 0.5).count();
         assert!((400..600).contains(&left), "{left}");
     }

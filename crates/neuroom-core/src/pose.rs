@@ -19,16 +19,25 @@ impl Default for Pose {
 
 impl Pose {
     /// The identity transform.
-    pub const IDENTITY: Self = Self { rotation: DMat3::IDENTITY, translation: DVec3::ZERO };
+    pub const IDENTITY: Self = Self {
+        rotation: DMat3::IDENTITY,
+        translation: DVec3::ZERO,
+    };
 
     /// A pose from its parts.
     pub fn new(rotation: DMat3, translation: DVec3) -> Self {
-        Self { rotation, translation }
+        Self {
+            rotation,
+            translation,
+        }
     }
 
     /// A pose rotating by `yaw` radians about +z, then translating.
     pub fn from_yaw_translation(yaw: f64, translation: DVec3) -> Self {
-        Self { rotation: DMat3::from_rotation_z(yaw), translation }
+        Self {
+            rotation: DMat3::from_rotation_z(yaw),
+            translation,
+        }
     }
 
     /// Maps a point.
@@ -44,7 +53,10 @@ impl Pose {
     /// The inverse transform.
     pub fn inverse(&self) -> Self {
         let rt = self.rotation.transpose();
-        Self { rotation: rt, translation: -(rt * self.translation) }
+        Self {
+            rotation: rt,
+            translation: -(rt * self.translation),
+        }
     }
 
     /// `self ∘ other`: first `other`, then `self`.
@@ -68,7 +80,12 @@ impl Pose {
     /// Rows of the 4×4 matrix, as written in the JSON formats.
     pub fn to_rows(&self) -> [[f64; 4]; 4] {
         let m = self.to_mat4().transpose();
-        [m.x_axis.to_array(), m.y_axis.to_array(), m.z_axis.to_array(), m.w_axis.to_array()]
+        [
+            m.x_axis.to_array(),
+            m.y_axis.to_array(),
+            m.z_axis.to_array(),
+            m.w_axis.to_array(),
+        ]
     }
 
     /// Builds a pose from 4 rows of a homogeneous matrix without checking it (see [`Pose::check_rows`]).
@@ -81,7 +98,11 @@ impl Pose {
         )
         .transpose();
         Self {
-            rotation: DMat3::from_cols(m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()),
+            rotation: DMat3::from_cols(
+                m.x_axis.truncate(),
+                m.y_axis.truncate(),
+                m.z_axis.truncate(),
+            ),
             translation: m.w_axis.truncate(),
         }
     }
@@ -98,9 +119,14 @@ impl Pose {
         }
         let pose = Self::from_rows_unchecked(rows);
         let r = pose.rotation;
-        let err = (r.transpose() * r - DMat3::IDENTITY).to_cols_array().iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let err = (r.transpose() * r - DMat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |a, x| a.max(x.abs()));
         if err > tol {
-            return Err(format!("rotation is not orthonormal (max |RᵀR − I| = {err:.2e}; scale is not allowed)"));
+            return Err(format!(
+                "rotation is not orthonormal (max |RᵀR − I| = {err:.2e}; scale is not allowed)"
+            ));
         }
         if r.determinant() < 0.0 {
             return Err("rotation is a reflection (det −1)".into());
@@ -114,7 +140,10 @@ impl Pose {
         let x = self.rotation.x_axis.normalize();
         let y = (self.rotation.y_axis - x * x.dot(self.rotation.y_axis)).normalize();
         let z = x.cross(y);
-        Self { rotation: DMat3::from_cols(x, y, z), translation: self.translation }
+        Self {
+            rotation: DMat3::from_cols(x, y, z),
+            translation: self.translation,
+        }
     }
 
     /// Rotation in single precision, for the renderer.
@@ -140,7 +169,10 @@ mod tests {
 
     #[test]
     fn rows_round_trip_and_inverse() {
-        let p = Pose::new(DMat3::from_euler(glam::EulerRot::ZYX, 0.3, -0.2, 0.1), DVec3::new(1.0, -2.0, 0.5));
+        let p = Pose::new(
+            DMat3::from_euler(glam::EulerRot::ZYX, 0.3, -0.2, 0.1),
+            DVec3::new(1.0, -2.0, 0.5),
+        );
         let rows = p.to_rows();
         assert_eq!(rows[0][3], 1.0);
         let q = Pose::check_rows(&rows, 1e-9).unwrap();
@@ -154,10 +186,22 @@ mod tests {
     fn rejects_scale_reflection_and_nan() {
         let mut rows = Pose::IDENTITY.to_rows();
         rows[0][0] = 2.0;
-        assert!(Pose::check_rows(&rows, 1e-4).unwrap_err().contains("orthonormal"));
+        assert!(
+            Pose::check_rows(&rows, 1e-4)
+                .unwrap_err()
+                .contains("orthonormal")
+        );
         rows[0][0] = -1.0;
-        assert!(Pose::check_rows(&rows, 1e-4).unwrap_err().contains("reflection"));
+        assert!(
+            Pose::check_rows(&rows, 1e-4)
+                .unwrap_err()
+                .contains("reflection")
+        );
         rows[0][0] = f64::NAN;
-        assert!(Pose::check_rows(&rows, 1e-4).unwrap_err().contains("non-finite"));
+        assert!(
+            Pose::check_rows(&rows, 1e-4)
+                .unwrap_err()
+                .contains("non-finite")
+        );
     }
 }

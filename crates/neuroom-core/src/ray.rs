@@ -14,7 +14,10 @@ pub struct Ray {
 impl Ray {
     /// A ray from an origin and a direction that is normalised here.
     pub fn new(origin: Vec3, direction: Vec3) -> Self {
-        Self { origin, direction: direction.normalize() }
+        Self {
+            origin,
+            direction: direction.normalize(),
+        }
     }
 
     /// The point at distance `t`.

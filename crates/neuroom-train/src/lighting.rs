@@ -9,7 +9,11 @@
 use glam::Vec3;
 
 /// Irradiance convolution weights Â_l for bands 0, 1, 2 (Ramamoorthi and Hanrahan 2001).
-const BAND_WEIGHTS: [f32; 3] = [std::f32::consts::PI, 2.0 * std::f32::consts::PI / 3.0, std::f32::consts::PI / 4.0];
+const BAND_WEIGHTS: [f32; 3] = [
+    std::f32::consts::PI,
+    2.0 * std::f32::consts::PI / 3.0,
+    std::f32::consts::PI / 4.0,
+];
 
 /// Real spherical harmonics of bands 0–2 at a unit direction, in the order
 /// (0,0), (1,−1), (1,0), (1,1), (2,−2), (2,−1), (2,0), (2,1), (2,2).
@@ -42,17 +46,26 @@ impl ShIrradiance {
     /// Projects an equirectangular radiance map (linear RGB, FORMAT.md panorama convention, z up) onto
     /// bands 0–2, after scaling it to mean radiance 1 over the sphere.
     pub fn from_equirect(width: u32, height: u32, radiance: &[[f32; 3]]) -> Self {
-        assert_eq!(radiance.len(), (width * height) as usize, "one radiance value per pixel");
+        assert_eq!(
+            radiance.len(),
+            (width * height) as usize,
+            "one radiance value per pixel"
+        );
         let mut coefficients = [[0.0f64; 9]; 3];
         let mut total_weight = 0.0f64;
         let mut total_luminance = 0.0f64;
-        let pixel_area = (2.0 * std::f64::consts::PI / width as f64) * (std::f64::consts::PI / height as f64);
+        let pixel_area =
+            (2.0 * std::f64::consts::PI / width as f64) * (std::f64::consts::PI / height as f64);
         for v in 0..height {
             let lat = std::f64::consts::PI * (0.5 - (v as f64 + 0.5) / height as f64);
             let weight = pixel_area * lat.cos();
             for u in 0..width {
                 let lon = std::f64::consts::PI * (1.0 - 2.0 * (u as f64 + 0.5) / width as f64);
-                let d = Vec3::new((lat.cos() * lon.cos()) as f32, (lat.cos() * lon.sin()) as f32, lat.sin() as f32);
+                let d = Vec3::new(
+                    (lat.cos() * lon.cos()) as f32,
+                    (lat.cos() * lon.sin()) as f32,
+                    lat.sin() as f32,
+                );
                 let l = radiance[(v * width + u) as usize];
                 let basis = sh9(d);
                 for (c, coeff) in coefficients.iter_mut().enumerate() {
@@ -65,14 +78,18 @@ impl ShIrradiance {
             }
         }
         let mean = (total_luminance / total_weight).max(1e-12);
-        Self { coefficients: coefficients.map(|ch| ch.map(|x| (x / mean) as f32)) }
+        Self {
+            coefficients: coefficients.map(|ch| ch.map(|x| (x / mean) as f32)),
+        }
     }
 
     /// Irradiance E(n) arriving at a surface with unit normal `n` (linear RGB, non-negative).
     pub fn irradiance(&self, n: Vec3) -> [f32; 3] {
         let basis = sh9(n);
         self.coefficients.map(|ch| {
-            let e: f32 = (0..9).map(|k| BAND_WEIGHTS[BAND_OF[k]] * ch[k] * basis[k]).sum();
+            let e: f32 = (0..9)
+                .map(|k| BAND_WEIGHTS[BAND_OF[k]] * ch[k] * basis[k])
+                .sum();
             e.max(0.0)
         })
     }
@@ -99,7 +116,11 @@ mod tests {
             let lat = std::f32::consts::PI * (0.5 - (v as f32 + 0.5) / height as f32);
             for u in 0..width {
                 let lon = std::f32::consts::PI * (1.0 - 2.0 * (u as f32 + 0.5) / width as f32);
-                out.push(f(Vec3::new(lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin())));
+                out.push(f(Vec3::new(
+                    lat.cos() * lon.cos(),
+                    lat.cos() * lon.sin(),
+                    lat.sin(),
+                )));
             }
         }
         out
@@ -108,7 +129,12 @@ mod tests {
     #[test]
     fn uniform_white_environment_leaves_colours_unchanged() {
         let sh = ShIrradiance::from_equirect(128, 64, &map(128, 64, |_| [3.0; 3]));
-        for n in [Vec3::Z, Vec3::X, -Vec3::Y, Vec3::new(0.3, -0.5, 0.8).normalize()] {
+        for n in [
+            Vec3::Z,
+            Vec3::X,
+            -Vec3::Y,
+            Vec3::new(0.3, -0.5, 0.8).normalize(),
+        ] {
             let c = sh.relight([0.2, 0.5, 0.8], n);
             for (a, b) in c.iter().zip([0.2, 0.5, 0.8]) {
                 assert!((a - b).abs() < 2e-3, "{c:?} at {n}");
@@ -120,7 +146,11 @@ mod tests {
     fn light_from_above_matches_the_clamped_cosine() {
         // Radiance 1 on the upper hemisphere only: exact irradiance is π (1 + cos θ) / 2 at normal tilt θ,
         // before normalisation to mean radiance 1 (the map's mean is 1/2, so it doubles).
-        let sh = ShIrradiance::from_equirect(256, 128, &map(256, 128, |d| if d.z > 0.0 { [1.0; 3] } else { [0.0; 3] }));
+        let sh = ShIrradiance::from_equirect(
+            256,
+            128,
+            &map(256, 128, |d| if d.z > 0.0 { [1.0; 3] } else { [0.0; 3] }),
+        );
         let up = sh.irradiance(Vec3::Z)[0];
         let side = sh.irradiance(Vec3::X)[0];
         let down = sh.irradiance(-Vec3::Z)[0];
@@ -136,10 +166,19 @@ mod tests {
         let sh = ShIrradiance::from_equirect(
             128,
             64,
-            &map(128, 64, |d| if d.x > 0.5 { [4.0, 1.0, 0.5] } else { [0.5, 0.5, 0.5] }),
+            &map(128, 64, |d| {
+                if d.x > 0.5 {
+                    [4.0, 1.0, 0.5]
+                } else {
+                    [0.5, 0.5, 0.5]
+                }
+            }),
         );
         let front = sh.irradiance(Vec3::X);
         let back = sh.irradiance(-Vec3::X);
-        assert!(front[0] > front[2] * 2.0 && front[0] > back[0] * 2.0, "{front:?} {back:?}");
+        assert!(
+            front[0] > front[2] * 2.0 && front[0] > back[0] * 2.0,
+            "{front:?} {back:?}"
+        );
     }
 }

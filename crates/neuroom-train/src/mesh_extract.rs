@@ -15,7 +15,14 @@ use rayon::prelude::*;
 
 /// The six tetrahedra of a cube, as corner numbers (bit 0 = +x, bit 1 = +y, bit 2 = +z), all sharing the
 /// diagonal from corner 0 to corner 7.
-const TETRAHEDRA: [[usize; 4]; 6] = [[0, 1, 3, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7], [0, 4, 5, 7], [0, 5, 1, 7]];
+const TETRAHEDRA: [[usize; 4]; 6] = [
+    [0, 1, 3, 7],
+    [0, 3, 2, 7],
+    [0, 2, 6, 7],
+    [0, 6, 4, 7],
+    [0, 4, 5, 7],
+    [0, 5, 1, 7],
+];
 
 /// A regular grid of sample points over an axis-aligned box.
 #[derive(Clone, Copy, Debug)]
@@ -34,7 +41,11 @@ impl Grid {
         let extent = (max - min).max(Vec3::splat(1e-6));
         let h = extent.max_element() / cells.max(1) as f32;
         let n = (extent / h).ceil().as_uvec3().max(UVec3::ONE);
-        Self { min, step: extent / n.as_vec3(), samples: n + UVec3::ONE }
+        Self {
+            min,
+            step: extent / n.as_vec3(),
+            samples: n + UVec3::ONE,
+        }
     }
 
     /// Linear index of sample (i, j, k).
@@ -62,8 +73,9 @@ pub fn sample_grid(grid: &Grid, sdf: &(dyn Fn(&[Vec3]) -> Vec<f32> + Sync)) -> V
     (0..grid.samples.z)
         .into_par_iter()
         .flat_map_iter(|k| {
-            let points: Vec<Vec3> =
-                (0..slice as u32).map(|s| grid.position(k * slice as u32 + s)).collect();
+            let points: Vec<Vec3> = (0..slice as u32)
+                .map(|s| grid.position(k * slice as u32 + s))
+                .collect();
             sdf(&points)
         })
         .collect()
@@ -84,8 +96,13 @@ pub fn polygonize(grid: &Grid, values: &[f32]) -> TriMesh {
     for k in 0..cells.z {
         for j in 0..cells.y {
             for i in 0..cells.x {
-                let corners: [u32; 8] =
-                    std::array::from_fn(|c| grid.index(i + (c as u32 & 1), j + ((c as u32 >> 1) & 1), k + (c as u32 >> 2)));
+                let corners: [u32; 8] = std::array::from_fn(|c| {
+                    grid.index(
+                        i + (c as u32 & 1),
+                        j + ((c as u32 >> 1) & 1),
+                        k + (c as u32 >> 2),
+                    )
+                });
                 let inside = corners.map(|c| values[c as usize] < 0.0);
                 if inside.iter().all(|&x| x) || inside.iter().all(|&x| !x) {
                     continue;
@@ -108,7 +125,8 @@ fn polygonize_tetrahedron(
     edge_vertex: &mut HashMap<(u32, u32), u32>,
     mesh: &mut TriMesh,
 ) {
-    let (inside, outside): (Vec<u32>, Vec<u32>) = ids.iter().partition(|&&id| values[id as usize] < 0.0);
+    let (inside, outside): (Vec<u32>, Vec<u32>) =
+        ids.iter().partition(|&&id| values[id as usize] < 0.0);
     let mut vertex = |a: u32, b: u32| -> u32 {
         let key = (a.min(b), a.max(b));
         *edge_vertex.entry(key).or_insert_with(|| {
@@ -157,7 +175,11 @@ pub struct Chamfer {
 pub fn chamfer(a: &[Vec3], b: &[Vec3]) -> Chamfer {
     let a_to_b = mean_nearest_distance(a, b);
     let b_to_a = mean_nearest_distance(b, a);
-    Chamfer { a_to_b, b_to_a, mean: 0.5 * (a_to_b + b_to_a) }
+    Chamfer {
+        a_to_b,
+        b_to_a,
+        mean: 0.5 * (a_to_b + b_to_a),
+    }
 }
 
 /// Mean over `queries` of the distance to the nearest point of `targets` (infinite when `targets` is empty).
@@ -174,7 +196,11 @@ fn mean_nearest_distance(queries: &[Vec3], targets: &[Vec3]) -> f32 {
     }
     let sum: f64 = queries
         .par_iter()
-        .map(|q| tree.nearest_one::<SquaredEuclidean>(&q.to_array()).distance.sqrt() as f64)
+        .map(|q| {
+            tree.nearest_one::<SquaredEuclidean>(&q.to_array())
+                .distance
+                .sqrt() as f64
+        })
         .sum();
     (sum / queries.len() as f64) as f32
 }
@@ -191,7 +217,11 @@ mod tests {
     fn sphere_mesh_is_close_closed_and_outward() {
         let grid = Grid::over(Vec3::splat(-0.7), Vec3::splat(0.7), 48);
         let mesh = extract_surface(&grid, &sphere_sdf);
-        assert!(mesh.positions.iter().all(|p| (p.length() - 0.5).abs() < 0.01));
+        assert!(
+            mesh.positions
+                .iter()
+                .all(|p| (p.length() - 0.5).abs() < 0.01)
+        );
         // Area of a sphere of radius 0.5 is π; a fine mesh approaches it from below.
         let area = mesh.area();
         assert!((area - std::f32::consts::PI).abs() < 0.03, "{area}");
@@ -203,7 +233,10 @@ mod tests {
                 *edges.entry((a.min(b), a.max(b))).or_default() += if a < b { 1 } else { -1 };
             }
         }
-        assert!(edges.values().all(|&v| v == 0), "mesh has open or inconsistently oriented edges");
+        assert!(
+            edges.values().all(|&v| v == 0),
+            "mesh has open or inconsistently oriented edges"
+        );
         // Outward: normals agree with the position direction.
         let outward = mesh.triangles.iter().all(|t| {
             let [a, b, c] = t.map(|i| mesh.positions[i as usize]);

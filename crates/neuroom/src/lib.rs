@@ -1,1 +1,7 @@
-//! placeholder
+//! neuroom as a library: the pipelines a Rust user (and the `neuroom` command) calls, each composing the
+//! stage crates — core formats, synthetic rooms, training, perception and fitting — without the stages
+//! importing one another.
+
+pub mod inspect;
+
+pub use inspect::{RoomReport, inspect_room};
