@@ -2,6 +2,7 @@
 //! stage crates — core formats, synthetic rooms, training, perception and fitting — without the stages
 //! importing one another.
 
+pub mod bench;
 pub mod inspect;
 
 pub use inspect::{RoomReport, inspect_room};

@@ -1,3 +1,4 @@
 //! One module per subcommand: its arguments and how it calls the library.
 
+pub mod bench;
 pub mod info;

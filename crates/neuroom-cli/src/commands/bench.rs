@@ -1,0 +1,61 @@
+//! `neuroom bench …`: the benchmarks behind the README's performance figures, as text and JSON.
+
+use neuroom::bench::{self, FieldBench};
+
+/// Measure the performance figures the README reports.
+///
+/// Example: `neuroom bench field --json`
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    which: Which,
+}
+
+#[derive(clap::Subcommand)]
+enum Which {
+    /// Forward and forward+backward throughput of the neural field on points uniform in the unit cube.
+    ///
+    /// Without flags: the default object and room configurations on 65 536 and 262 144 points.
+    /// Example: `neuroom bench field --log2-table 16 --finest 512 --n 65536 --json`
+    Field(FieldArgs),
+}
+
+#[derive(clap::Args)]
+struct FieldArgs {
+    /// Print one JSON object per measurement (after the text lines).
+    #[arg(long)]
+    json: bool,
+    /// Hash table size per level, log2 (measures a custom configuration based on the object one).
+    #[arg(long)]
+    log2_table: Option<u32>,
+    /// Finest hash grid resolution (custom configuration).
+    #[arg(long)]
+    finest: Option<usize>,
+    /// Number of points (repeatable; default 65536 and 262144).
+    #[arg(long)]
+    n: Vec<usize>,
+    /// Worker threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.which {
+        Which::Field(a) => {
+            let spec = FieldBench {
+                log2_table: a.log2_table,
+                finest: a.finest,
+                n: a.n,
+                threads: a.threads,
+            };
+            for report in bench::field(&spec)? {
+                println!("{}", bench::describe_field(&report));
+                if a.json {
+                    println!("{}", serde_json::to_string(&report)?);
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,64 @@
+//! The benchmarks behind the README's performance figures; the `neuroom bench` command prints them.
+
+use neuroom_field::NeusConfig;
+use neuroom_field::bench::{BenchReport, field_throughput};
+
+/// What `neuroom bench field` measures.
+#[derive(Clone, Debug, Default)]
+pub struct FieldBench {
+    /// Custom table size (log2); with `finest`, replaces the default object/room pair by one configuration.
+    pub log2_table: Option<u32>,
+    /// Custom finest resolution.
+    pub finest: Option<usize>,
+    /// Point counts; empty = 65 536 and 262 144.
+    pub n: Vec<usize>,
+    /// Worker threads.
+    pub threads: usize,
+}
+
+/// Measures field throughput for the default object and room configurations, or for a custom one.
+pub fn field(spec: &FieldBench) -> anyhow::Result<Vec<BenchReport>> {
+    anyhow::ensure!(spec.threads >= 1, "--threads must be at least 1");
+    let ns = if spec.n.is_empty() {
+        vec![65_536, 262_144]
+    } else {
+        spec.n.clone()
+    };
+    let configs = if spec.log2_table.is_some() || spec.finest.is_some() {
+        let mut c = NeusConfig::object([0.5; 3]);
+        c.hash.log2_table = spec.log2_table.unwrap_or(c.hash.log2_table);
+        c.hash.finest_resolution = spec.finest.unwrap_or(c.hash.finest_resolution);
+        vec![("custom", c)]
+    } else {
+        vec![
+            ("object", NeusConfig::object([0.5; 3])),
+            ("room", NeusConfig::room([-2.0, -2.0, 0.0], [2.0, 2.0, 2.6])),
+        ]
+    };
+    let mut reports = Vec::new();
+    for (label, config) in &configs {
+        for &n in &ns {
+            anyhow::ensure!(n > 0, "--n must be positive");
+            reports.push(field_throughput(label, config, n, spec.threads, 3));
+        }
+    }
+    Ok(reports)
+}
+
+/// One line of text for a field measurement.
+pub fn describe_field(r: &BenchReport) -> String {
+    format!(
+        "field {:6} n={:7} T=2^{} finest={}: fwd {:.3} M points/s, fwd+bwd {:.3} M points/s, \
+         {:.0} FLOPs/point, {:.1} GFLOP/s = {:.1} % of {:.0} GFLOP/s peak",
+        r.config,
+        r.n,
+        r.log2_table,
+        r.finest,
+        r.fwd_points_per_s * 1e-6,
+        r.fwd_bwd_points_per_s * 1e-6,
+        r.flops_per_point_fwd_bwd,
+        r.gflops_fwd_bwd,
+        100.0 * r.fraction_of_peak,
+        r.peak_gflops
+    )
+}
