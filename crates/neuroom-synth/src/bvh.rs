@@ -242,7 +242,7 @@ fn best_split(range: &[u32], boxes: &[Aabb], centres: &[Vec3]) -> Option<(usize,
         .iter()
         .fold(Aabb::EMPTY, |b, &i| b.with_point(centres[i as usize]));
     let mut best: Option<(usize, f32, f32)> = None;
-    for axis in 0..3 {
+    for axis in [0usize, 1, 2] {
         let (lo, hi) = (cb.min[axis], cb.max[axis]);
         if hi <= lo {
             continue;

@@ -35,7 +35,7 @@ use crate::views::{room_views, sphere_band};
 /// Metres per unit of the written depth PNGs.
 pub const DEPTH_UNIT: f64 = 0.001;
 /// Ambient-occlusion reach inside rooms (m).
-const ROOM_AO_DISTANCE: f32 = 0.5;
+pub(crate) const ROOM_AO_DISTANCE: f32 = 0.35;
 
 /// What can go wrong while generating.
 #[derive(Debug, thiserror::Error)]
@@ -85,6 +85,9 @@ pub struct Summary {
     /// Seconds per stage.
     pub seconds: BTreeMap<String, f64>,
 }
+
+/// One writing stage; returns how many views or panoramas it wrote.
+type Stage = fn(&mut Context, &mut dyn FnMut(Progress)) -> Result<usize, SynthError>;
 
 /// Everything generation shares between stages.
 struct Context<'a> {
@@ -147,10 +150,7 @@ pub fn generate(
         rays: 0,
     };
     seconds.insert("setup".into(), start.elapsed().as_secs_f64());
-    let stages: [(
-        &str,
-        fn(&mut Context, &mut dyn FnMut(Progress)) -> Result<usize, SynthError>,
-    ); 4] = [
+    let stages: [(&str, Stage); 4] = [
         ("background", write_background),
         ("objects", write_object_captures),
         ("panoramas", write_panoramas),
@@ -176,7 +176,7 @@ pub fn generate(
 }
 
 /// One model per preset model spec: from the OBJ catalog when it has a match, else procedural.
-fn build_models(
+pub(crate) fn build_models(
     preset: &Preset,
     seed: u64,
     catalog: Option<&Sh3dCatalog>,

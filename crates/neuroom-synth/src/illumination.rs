@@ -15,7 +15,7 @@ use crate::lighting::{Environment, EnvironmentLight, Light, Lighting};
 /// Colour temperature of the capture lighting.
 pub const CAPTURE_KELVIN: f32 = 5500.0;
 /// Power of one ceiling panel under the capture lighting (W).
-const PANEL_W: f32 = 40.0;
+const PANEL_W: f32 = 16.0;
 /// Panel side (m).
 const PANEL_SIDE: f32 = 0.6;
 
@@ -145,7 +145,7 @@ pub fn test_lighting(index: u32, room: DVec3, hdris: &[Hdri], rng: &mut Pcg64) -
         );
         lights.push(Light::point(
             corner,
-            rng.random_range(12.0..35.0),
+            rng.random_range(5.0..14.0),
             KELVINS[rng.random_range(0..KELVINS.len())],
         ));
     }

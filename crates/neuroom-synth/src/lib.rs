@@ -4,6 +4,7 @@
 //!
 //! Entry point: [`generate`] with a [`Preset`] (see [`PRESET_NAMES`]).
 
+pub mod bench;
 pub mod bvh;
 pub mod catalog;
 pub mod furniture;
@@ -23,5 +24,6 @@ pub mod shell;
 pub mod texture;
 pub mod views;
 
+pub use bench::{BenchReport, bench_panorama};
 pub use generate::{Progress, Summary, SynthError, generate};
 pub use preset::{PRESET_NAMES, Preset};

@@ -270,7 +270,10 @@ impl Preset {
                 ));
             }
         }
-        if self.panoramas.width % 2 != 0 || self.objects.is_empty() || self.objects.len() > 65535 {
+        if !self.panoramas.width.is_multiple_of(2)
+            || self.objects.is_empty()
+            || self.objects.len() > 65535
+        {
             return Err("panorama width must be even and a room needs 1..65535 objects".into());
         }
         Ok(())

@@ -278,7 +278,11 @@ fn render_pixel(
             covered += 1;
         } else if let Some(hit) = hit {
             let surface = scene.surface(&hit, origin, d);
-            let (l, n) = shade(scene, rig, &surface, -d, q.ao_rays, &mut rng);
+            let strata = Strata {
+                index: s * q.ao_rays,
+                count: q.spp * q.ao_rays,
+            };
+            let (l, n) = shade(scene, rig, &surface, -d, q.ao_rays, strata, &mut rng);
             sum += l;
             rays += n;
             covered += 1;
@@ -303,13 +307,27 @@ fn render_pixel(
     }
 }
 
+/// Which of a pixel's occlusion rays a colour sample casts: strata `index..index + ao_rays` of
+/// `count`, so the rays of all samples of a pixel cover the hemisphere evenly.
+#[derive(Clone, Copy, Debug)]
+struct Strata {
+    index: u32,
+    count: u32,
+}
+
+/// Share of the ambient light that occlusion can remove; the rest stands for light reaching
+/// corners by longer paths, and keeps low-sample occlusion noise faint.
+const OCCLUDABLE: f32 = 0.7;
+
 /// Outgoing radiance towards `wo` at a surface, and the number of rays traced for it.
+#[allow(clippy::too_many_arguments)]
 fn shade(
     scene: &Scene,
     rig: &LightRig,
     s: &Surface,
     wo: Vec3,
     ao_rays: u32,
+    strata: Strata,
     rng: &mut Pcg32,
 ) -> (Vec3, u64) {
     let albedo = s.material.albedo_at(s.uv);
@@ -354,26 +372,36 @@ fn shade(
             radiance += s.material.brdf(albedo, n, l, wo) * incident * cos_s;
         }
     }
-    let open = occlusion(scene, p, n, rig.ao_distance, ao_rays, rng);
+    let open = occlusion(scene, p, n, rig.ao_distance, ao_rays, strata, rng);
     rays += ao_rays as u64;
     let mut irradiance = rig.ambient;
     if let Some((env, strength)) = &rig.environment {
         irradiance += env.irradiance(n) * *strength;
     }
-    radiance += albedo * std::f32::consts::FRAC_1_PI * irradiance * open;
+    radiance +=
+        albedo * std::f32::consts::FRAC_1_PI * irradiance * (1.0 - OCCLUDABLE + OCCLUDABLE * open);
     (radiance, rays)
 }
 
 /// Fraction of `count` cosine-weighted rays around `n` that travel `distance` without a hit
-/// (1 when `count` is 0).
-fn occlusion(scene: &Scene, p: Vec3, n: Vec3, distance: f32, count: u32, rng: &mut Pcg32) -> f32 {
+/// (1 when `count` is 0); ray k takes elevation stratum `strata.index + k` of `strata.count`.
+fn occlusion(
+    scene: &Scene,
+    p: Vec3,
+    n: Vec3,
+    distance: f32,
+    count: u32,
+    strata: Strata,
+    rng: &mut Pcg32,
+) -> f32 {
     if count == 0 {
         return 1.0;
     }
     let (t, b) = n.any_orthonormal_pair();
     let mut open = 0;
-    for _ in 0..count {
-        let (r1, r2): (f32, f32) = (rng.random(), rng.random());
+    for k in 0..count {
+        let r1 = ((strata.index + k) as f32 + rng.random::<f32>()) / strata.count as f32;
+        let r2: f32 = rng.random();
         let (r, phi) = (r1.sqrt(), std::f32::consts::TAU * r2);
         let d = t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - r1).max(0.0).sqrt();
         if !scene.occluded(p, d.normalize(), distance) {

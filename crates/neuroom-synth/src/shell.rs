@@ -43,7 +43,7 @@ const DOOR_HEIGHT: f32 = 2.05;
 
 /// Builds a room of inner size `size` with finishes chosen by `seed`.
 pub fn build_shell(size: DVec3, seed: u64) -> Shell {
-    let mut rng = Pcg64::seed_from_u64(seed ^ 0x5EED_0F_5E11);
+    let mut rng = Pcg64::seed_from_u64(seed ^ 0x005E_ED0F_5E11);
     let s = size.as_vec3();
     let mut mesh = Mesh::default();
     let floor_tex = floor_texture(&mut rng);

@@ -96,9 +96,7 @@ fn everything_reads_back_through_core() {
             cap.depth_unit_scale_factor,
         )
         .unwrap();
-        assert!(
-            mask.data.iter().any(|&m| m == o.id) && mask.data.iter().all(|&m| m == 0 || m == o.id)
-        );
+        assert!(mask.data.contains(&o.id) && mask.data.iter().all(|&m| m == 0 || m == o.id));
         let mut alpha_mismatch = 0;
         for ((px, m), d) in rgba.data.iter().zip(&mask.data).zip(&depth.data) {
             assert_eq!(*m == 0, *d == 0.0, "mask and depth disagree");
@@ -161,17 +159,18 @@ fn capture_depth_is_consistent_across_views() {
                         if !fj.camera.in_image(px) {
                             continue;
                         }
-                        let dj = *depths[j].get(px.x as u32, px.y as u32) as f64;
-                        if dj == 0.0 {
+                        // The 3×3 neighbourhood bounds what view j sees around the projection,
+                        // which absorbs depth edges and grazing surfaces at this small size.
+                        let Some((lo, hi)) = neighbourhood(&depths[j], px.x as u32, px.y as u32)
+                        else {
                             continue;
-                        }
+                        };
                         compared += 1;
-                        // Occluded points lie behind what view j sees; visible ones match within
-                        // the quantisation and one pixel of surface slope. Only pixels straddling
-                        // a depth edge may seem to lie in front.
-                        if (dj - zj).abs() < 0.01 + 0.01 * zj {
+                        // Occluded points lie behind what view j sees; visible ones match.
+                        let tol = 0.005 + 0.005 * zj;
+                        if zj > lo - tol && zj < hi + tol {
                             agree += 1;
-                        } else if zj < dj {
+                        } else if zj < lo - tol {
                             in_front += 1;
                         }
                     }
@@ -186,11 +185,25 @@ fn capture_depth_is_consistent_across_views() {
             capture.display()
         );
         assert!(
-            (in_front as f64) < 0.03 * compared as f64,
+            (in_front as f64) < 0.01 * compared as f64,
             "{}: {in_front} of {compared} in front",
             capture.display()
         );
     }
+}
+
+/// Smallest and largest non-zero depth in the 3×3 block around (u, v).
+fn neighbourhood(depth: &neuroom_core::image::DepthImage, u: u32, v: u32) -> Option<(f64, f64)> {
+    let mut range: Option<(f64, f64)> = None;
+    for y in v.saturating_sub(1)..(v + 2).min(depth.height) {
+        for x in u.saturating_sub(1)..(u + 2).min(depth.width) {
+            let d = *depth.get(x, y) as f64;
+            if d > 0.0 {
+                range = Some(range.map_or((d, d), |(a, b)| (a.min(d), b.max(d))));
+            }
+        }
+    }
+    range
 }
 
 #[test]
@@ -311,4 +324,13 @@ fn arrangements_follow_room_logic() {
         }
     }
     assert!(omitted, "the last arrangement leaves an object out");
+}
+
+#[test]
+fn bench_reports_throughput() {
+    let r =
+        neuroom_synth::bench_panorama(64, neuroom_synth::render::Quality { spp: 1, ao_rays: 1 }, 1)
+            .unwrap();
+    assert_eq!(r.samples, 64 * 32);
+    assert!(r.rays >= r.samples * 2 && r.samples_per_second > 0.0 && r.triangles > 100);
 }
