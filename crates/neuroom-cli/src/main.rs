@@ -2,6 +2,7 @@
 //! and turns errors into messages and exit codes.
 
 mod commands;
+mod progress;
 
 use clap::{Parser, Subcommand};
 
@@ -15,6 +16,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    Synth(commands::synth::Args),
     Info(commands::info::Args),
     Bench(commands::bench::Args),
 }
@@ -22,6 +24,7 @@ enum Command {
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Synth(args) => commands::synth::run(args),
         Command::Info(args) => commands::info::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };

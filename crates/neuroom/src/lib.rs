@@ -4,5 +4,6 @@
 
 pub mod bench;
 pub mod inspect;
+pub mod synth;
 
 pub use inspect::{RoomReport, inspect_room};
