@@ -145,13 +145,13 @@ impl Kind {
 
     /// The room logic of this kind for a model of full extents `size` (canonical frame): wall
     /// pieces, free-standing pieces, pictures at eye height, small objects on supports, and the
-    /// support top (the box top, less a 4 cm rim) for tables, desks and cabinets.
+    /// support top (the box top, less a 2 cm rim) for tables, desks and cabinets.
     pub fn placement(self, size: DVec3) -> Placement {
         let top = || {
             Some(SupportTop {
                 height: size.z * 0.5,
                 centre: DVec2::ZERO,
-                half_extent: (size.truncate() * 0.5 - DVec2::splat(0.04)).max(DVec2::splat(0.01)),
+                half_extent: (size.truncate() * 0.5 - DVec2::splat(0.02)).max(DVec2::splat(0.01)),
             })
         };
         match self {
@@ -530,7 +530,7 @@ fn table(
 }
 
 fn table_lamp(b: &mut Builder, rng: &mut Pcg64) {
-    let (h, r) = (range(rng, (0.32, 0.5)), range(rng, (0.1, 0.16)));
+    let (h, r) = (range(rng, (0.32, 0.5)), range(rng, (0.09, 0.13)));
     let (base, shade) = (b.metal(rng), b.paint(rng, 0.5, 0.85));
     b.mesh.add_cylinder(Vec3::ZERO, r * 0.6, 0.03, 24, base);
     b.mesh

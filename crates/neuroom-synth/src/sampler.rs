@@ -235,7 +235,8 @@ impl RoomSpace<'_> {
     }
 }
 
-/// A pose on the top of `support`, the object's footprint inside the usable rectangle for any yaw.
+/// A pose on the top of `support`: a random yaw, then a position keeping the turned footprint
+/// inside the usable rectangle.
 fn on_top(
     f: &Furniture,
     support: &Furniture,
@@ -243,8 +244,11 @@ fn on_top(
     rng: &mut Pcg64,
 ) -> Option<Pose> {
     let top = support.placement.top?;
-    let r = (f.size.x * f.size.x + f.size.y * f.size.y).sqrt() * 0.5;
-    let room = top.half_extent - DVec2::splat(r);
+    let relative_yaw = rng.random_range(-PI..PI);
+    let (s, c) = f64::sin_cos(relative_yaw);
+    let (hx, hy) = (f.size.x * 0.5, f.size.y * 0.5);
+    let extent = DVec2::new(c.abs() * hx + s.abs() * hy, s.abs() * hx + c.abs() * hy);
+    let room = top.half_extent - extent;
     if room.min_element() < 0.0 {
         return None;
     }
@@ -253,7 +257,7 @@ fn on_top(
         top.centre.y + rng.random_range(-room.y..=room.y),
         top.height + f.size.z * 0.5,
     );
-    let yaw = support_pose.yaw() + rng.random_range(-PI..PI);
+    let yaw = support_pose.yaw() + relative_yaw;
     Some(Pose::new(
         DMat3::from_rotation_z(yaw),
         support_pose.transform_point(local),

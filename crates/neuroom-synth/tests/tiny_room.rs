@@ -334,3 +334,52 @@ fn bench_reports_throughput() {
     assert_eq!(r.samples, 64 * 32);
     assert!(r.rays >= r.samples * 2 && r.samples_per_second > 0.0 && r.triangles > 100);
 }
+
+#[test]
+fn every_preset_arranges_for_many_seeds() {
+    use neuroom_synth::sampler::{Item, RoomSpace, YawBox};
+    use rand::SeedableRng;
+    for name in neuroom_synth::PRESET_NAMES {
+        let preset = Preset::named(name).unwrap();
+        for seed in 0..12u64 {
+            let shell =
+                neuroom_synth::shell::build_shell(DVec3::from_array(preset.room_size), seed);
+            let models: Vec<_> = preset
+                .models
+                .iter()
+                .map(|m| m.kind.build(&m.name, seed))
+                .collect();
+            let items: Vec<Item> = preset
+                .objects
+                .iter()
+                .map(|o| Item {
+                    furniture: &models[preset
+                        .models
+                        .iter()
+                        .position(|m| m.name == o.model)
+                        .unwrap()],
+                    support: o
+                        .on
+                        .as_ref()
+                        .and_then(|s| preset.objects.iter().position(|x| &x.name == s)),
+                })
+                .collect();
+            let space = RoomSpace {
+                size: shell.size,
+                keep_out: &shell.keep_out,
+            };
+            let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+            let placed = space
+                .arrange(&items, &[], &mut rng)
+                .unwrap_or_else(|| panic!("{name} seed {seed}: no layout"));
+            let boxes: Vec<YawBox> = placed
+                .iter()
+                .map(|p| YawBox::of(&p.pose, items[p.index].furniture.size))
+                .collect();
+            assert!(
+                space.camera(&boxes, 0.35, &mut rng).is_some(),
+                "{name} seed {seed}: no camera spot"
+            );
+        }
+    }
+}
