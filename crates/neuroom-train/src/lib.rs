@@ -1,5 +1,28 @@
 //! The offline stage: learning one neural field per object and one for the empty room from RGB-D captures,
 //! with lighting augmentation, and the geometry checks (mesh extraction, Chamfer distance) on the result.
+//!
+//! - [`dataset`]: rays, targets and pixel classes from a capture; [`normals`]: normals from depth.
+//! - [`losses`]: colour, depth, mask, SDF-from-depth terms; [`trainer`]: the loop of one model, resumable.
+//! - [`augment`] + [`lighting`]: HDR lighting augmentation and light codes.
+//! - [`room`]: `train_room` and the model directory of a room with its reader.
+//! - [`eval`]: held-out PSNR, depth error, Chamfer, light-code check; [`bench`]: timed runs with reports.
 
+pub mod augment;
+pub mod bench;
+pub mod config;
+pub mod dataset;
+pub mod eval;
 pub mod lighting;
+pub mod losses;
 pub mod mesh_extract;
+pub mod normals;
+pub mod progress;
+pub mod rng;
+pub mod room;
+pub mod trainer;
+
+pub use config::{ModelBudget, TrainConfig};
+pub use room::{
+    Manifest, ModelEntry, RoomModels, TrainError, TrainSummary, load_room_models, train_room,
+};
+pub use trainer::{ModelKind, Trainer};

@@ -1,0 +1,145 @@
+//! Timed training runs with their figures, for `neuroom bench train …`: one object or the background of a
+//! room, trained from scratch with the configuration's budget (no checkpoints), then evaluated on the
+//! held-out views and, for objects, against `meshes/<object>.ply` when the room has it.
+
+use crate::augment::Augmentation;
+use crate::config::TrainConfig;
+use crate::eval::{LightCodeCheck, evaluate, extract_mesh, mesh_chamfer};
+use crate::mesh_extract::Chamfer;
+use crate::progress::Progress;
+use crate::room::{ModelSpec, TrainError, load_model_data, model_specs, with_threads};
+use crate::trainer::{ModelKind, Trainer};
+use neuroom_core::formats::read_room;
+use neuroom_core::mesh::read_ply;
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// Grid cells per side of the mesh extracted for the Chamfer distance.
+pub const MESH_CELLS: u32 = 192;
+/// Points sampled on each mesh for the Chamfer distance.
+pub const CHAMFER_SAMPLES: usize = 50_000;
+
+/// Figures of one timed training run.
+#[derive(Clone, Debug, Serialize)]
+pub struct ModelBenchReport {
+    /// Room name.
+    pub room: String,
+    /// Model name (`background` or the capture name).
+    pub model: String,
+    /// Object or background.
+    pub kind: ModelKind,
+    /// Worker threads.
+    pub threads: usize,
+    /// Training rays.
+    pub rays: usize,
+    /// Steps taken.
+    pub steps: u64,
+    /// Seconds in training steps.
+    pub train_seconds: f64,
+    /// Seconds reading the capture.
+    pub load_seconds: f64,
+    /// Seconds evaluating.
+    pub eval_seconds: f64,
+    /// Held-out PSNR (dB) on the model's pixels.
+    pub psnr_db: f64,
+    /// Median held-out distance error (metres).
+    pub median_depth_error_m: f32,
+    /// Fraction of the model's held-out pixels the render hit.
+    pub coverage: f32,
+    /// Chamfer distance (metres) to the ground-truth mesh, when there is one.
+    pub chamfer_m: Option<Chamfer>,
+    /// Light-code check per augmentation map.
+    pub light_codes: Vec<LightCodeCheck>,
+    /// Learned NeuS sharpness.
+    pub inv_s: f32,
+}
+
+/// Trains and evaluates the model of object `object` (by name) of the room at `room_dir`.
+pub fn bench_object(
+    room_dir: &Path,
+    object: &str,
+    config: &TrainConfig,
+    progress: &dyn Progress,
+) -> Result<ModelBenchReport, TrainError> {
+    let room = read_room(room_dir)?;
+    let spec = model_specs(&room)
+        .into_iter()
+        .find(|s| s.objects.iter().any(|o| o == object))
+        .ok_or_else(|| TrainError::File {
+            path: room_dir.join("room.json"),
+            message: format!("no object named {object:?}"),
+        })?;
+    let mesh = room.root.join("meshes").join(format!("{object}.ply"));
+    bench_model(
+        &room.name,
+        &spec,
+        mesh.exists().then_some(mesh.as_path()),
+        config,
+        progress,
+    )
+}
+
+/// Trains and evaluates the background model of the room at `room_dir`.
+pub fn bench_background(
+    room_dir: &Path,
+    config: &TrainConfig,
+    progress: &dyn Progress,
+) -> Result<ModelBenchReport, TrainError> {
+    let room = read_room(room_dir)?;
+    let spec = model_specs(&room).remove(0);
+    bench_model(&room.name, &spec, None, config, progress)
+}
+
+fn bench_model(
+    room: &str,
+    spec: &ModelSpec,
+    mesh: Option<&Path>,
+    config: &TrainConfig,
+    progress: &dyn Progress,
+) -> Result<ModelBenchReport, TrainError> {
+    with_threads(config.threads, || {
+        let augmentation = Augmentation::load(&config.env_maps)?;
+        let (data, bounds, load_seconds) = load_model_data(spec, config)?;
+        let mut trainer = Trainer::new(&data, &augmentation, config, spec.kind, bounds);
+        trainer.run(&spec.name, None, progress)?;
+        let t0 = Instant::now();
+        let fc = trainer.field.config();
+        let field_bounds = crate::dataset::Aabb {
+            min: fc.bounds_min,
+            max: fc.bounds_max,
+        };
+        let eval = evaluate(
+            &trainer.field,
+            &data.held_out,
+            &field_bounds,
+            &augmentation,
+            trainer.light_codes().capture,
+        );
+        let chamfer_m = match mesh {
+            Some(path) => {
+                let truth = read_ply(path)?;
+                let learned = extract_mesh(&trainer.field, &field_bounds, MESH_CELLS);
+                Some(mesh_chamfer(&learned, &truth, CHAMFER_SAMPLES))
+            }
+            None => None,
+        };
+        Ok(ModelBenchReport {
+            room: room.to_string(),
+            model: spec.name.clone(),
+            kind: spec.kind,
+            threads: rayon::current_num_threads(),
+            rays: data.rays.len(),
+            steps: trainer.state.step,
+            train_seconds: trainer.state.elapsed_s,
+            load_seconds,
+            eval_seconds: t0.elapsed().as_secs_f64(),
+            psnr_db: eval.psnr_db,
+            median_depth_error_m: eval.median_depth_error_m,
+            coverage: eval.coverage,
+            chamfer_m,
+            light_codes: eval.light_codes,
+            inv_s: trainer.field.inv_s(),
+        })
+    })
+}

@@ -1,0 +1,132 @@
+//! Training configuration, with the defaults stated in the code (see [`TrainConfig::default`]).
+
+use crate::augment::vendored_env_maps;
+use crate::losses::LossWeights;
+use neuroom_field::{Group, NUM_GROUPS};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// How long and how a model trains: what differs between objects and the room.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelBudget {
+    /// Most optimisation steps.
+    pub steps: u64,
+    /// Wall-clock budget in seconds (data loading excluded); the step count is then fitted to it after the
+    /// first steps, so the learning-rate decay still ends on time.
+    pub time_budget_s: Option<f64>,
+    /// Rays per step.
+    pub batch_rays: usize,
+    /// Samples in the shell around the observed surface, per ray.
+    pub shell_samples: usize,
+    /// Samples spread over the ray's span in the box, per ray (all samples of a ray without depth).
+    pub uniform_samples: usize,
+    /// log2 of the hash table size of the field.
+    pub log2_table: u32,
+    /// Finest hash-grid resolution of the field.
+    pub finest_resolution: usize,
+    /// Near-surface SDF band half-width, as a fraction of the box diagonal.
+    pub sdf_band: f32,
+    /// Smallest shell half-width, as a fraction of the box diagonal (the shell is `5 / inv_s` wide
+    /// otherwise, capped at 10 % of the diagonal).
+    pub shell_min: f32,
+}
+
+/// Everything [`crate::room::train_room`] and [`crate::trainer::Trainer`] need to know.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainConfig {
+    /// Object models.
+    pub object: ModelBudget,
+    /// The background (room) model.
+    pub background: ModelBudget,
+    /// Fraction of an object batch drawn from empty rays.
+    pub empty_fraction: f32,
+    /// Loss weights.
+    pub weights: LossWeights,
+    /// Eikonal points per step: every `eikonal_stride`-th sample of the batch.
+    pub eikonal_stride: usize,
+    /// Learning rates per parameter group (hash, SDF network, colour network, appearance, light, object
+    /// codes, variance).
+    pub learning_rates: [f32; NUM_GROUPS],
+    /// Warm-up steps of the learning rate.
+    pub warmup_steps: u64,
+    /// Exponent of the polynomial decay `(1 − step / total)^power`.
+    pub decay_power: f32,
+    /// Smallest learning-rate multiplier of the decay.
+    pub decay_floor: f32,
+    /// Hash levels active at step 0 (coarse-to-fine).
+    pub start_levels: usize,
+    /// Steps before the next hash level turns on.
+    pub steps_per_level: u64,
+    /// Every `holdout`-th frame is held out for evaluation (0 = none).
+    pub holdout: usize,
+    /// Steps between checkpoints (0 = only at the end).
+    pub checkpoint_every: u64,
+    /// Environment maps of the lighting augmentation (one light code each).
+    pub env_maps: Vec<PathBuf>,
+    /// Fraction of surface rays re-lit by a random augmentation map.
+    pub augment_fraction: f32,
+    /// One appearance code per training frame (else one shared code: captures under constant light).
+    pub appearance_per_frame: bool,
+    /// Seed of sampling and initialisation.
+    pub seed: u64,
+    /// Worker threads (0 = rayon's default). Bit-identical resumption needs the same count.
+    pub threads: usize,
+}
+
+impl Default for TrainConfig {
+    /// Objects: 2 000 steps or 5 minutes, 2 048 rays × (24 shell + 8 uniform) samples, T = 2^15, finest
+    /// 512. Room: 3 000 steps or 10 minutes, 2 048 rays, T = 2^18, finest 1 024. Adam at 1e-2 (tables,
+    /// codes), 5e-3 (networks), 1e-3 (variance), 20 warm-up steps, then linear decay to 3 %; 4 levels at
+    /// first and one more every 40 steps; every 10th frame held out; the vendored HDR maps for augmentation,
+    /// 30 % of surface rays re-lit.
+    fn default() -> Self {
+        let mut lr = [0.0; NUM_GROUPS];
+        lr[Group::Hash as usize] = 1e-2;
+        lr[Group::SdfMlp as usize] = 5e-3;
+        lr[Group::ColorMlp as usize] = 5e-3;
+        lr[Group::Appearance as usize] = 1e-2;
+        lr[Group::Light as usize] = 1e-2;
+        lr[Group::Object as usize] = 1e-2;
+        lr[Group::Variance as usize] = 1e-3;
+        Self {
+            object: ModelBudget {
+                steps: 2000,
+                time_budget_s: Some(300.0),
+                batch_rays: 2048,
+                shell_samples: 24,
+                uniform_samples: 8,
+                log2_table: 15,
+                finest_resolution: 512,
+                sdf_band: 0.02,
+                shell_min: 0.01,
+            },
+            background: ModelBudget {
+                steps: 3000,
+                time_budget_s: Some(600.0),
+                batch_rays: 2048,
+                shell_samples: 24,
+                uniform_samples: 8,
+                log2_table: 18,
+                finest_resolution: 1024,
+                sdf_band: 0.01,
+                shell_min: 0.003,
+            },
+            empty_fraction: 0.25,
+            weights: LossWeights::default(),
+            eikonal_stride: 16,
+            learning_rates: lr,
+            warmup_steps: 20,
+            decay_power: 1.0,
+            decay_floor: 0.03,
+            start_levels: 4,
+            steps_per_level: 40,
+            holdout: 10,
+            checkpoint_every: 250,
+            env_maps: vendored_env_maps(),
+            augment_fraction: 0.3,
+            appearance_per_frame: false,
+            seed: 1,
+            threads: 0,
+        }
+    }
+}

@@ -1,0 +1,338 @@
+//! Evaluation of a learned model on held-out views and against a ground-truth mesh.
+//!
+//! Held-out views are rendered without their depth: surface-guided sampling finds the first zero crossing
+//! of the SDF along the ray from a coarse SDF-only pass, then renders a thin shell around it with NeuS
+//! volume rendering (rays without a crossing render nothing: opacity 0). Figures:
+//! - PSNR (sRGB, over black) on the model's pixels: the object's pixels, or every valid background pixel;
+//! - median absolute error of the rendered distance (`depth / opacity`) where the depth is known;
+//! - Chamfer distance between the extracted mesh ([`crate::mesh_extract`]) and the ground truth;
+//! - the light-code check: a held-out view re-lit by an augmentation map, rendered with that map's code and
+//!   with code 0, PSNR of each against the re-lit image.
+
+use crate::augment::Augmentation;
+use crate::dataset::{Aabb, PixelClass, View};
+use crate::mesh_extract::{Chamfer, Grid, chamfer, extract_surface};
+use glam::Vec3;
+use neuroom_core::mesh::TriMesh;
+use neuroom_field::{CodeSet, Codes, NeusField, Outputs, Tape};
+use neuroom_render::sampling::uniform;
+use neuroom_render::volume::{RayTape, render_ray};
+use serde::{Deserialize, Serialize};
+
+/// Sampling of the evaluation renderer.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderOptions {
+    /// SDF-only samples per ray to find the surface.
+    pub coarse: usize,
+    /// Samples in the shell around it.
+    pub fine: usize,
+    /// Smallest shell half-width (metres); it is `5 / inv_s` otherwise.
+    pub min_shell: f32,
+    /// Nearest distance from the camera considered.
+    pub near: f32,
+}
+
+impl RenderOptions {
+    /// Defaults for a box of diagonal `diag`: 128 coarse samples, 32 fine, shell at least 0.5 % of it.
+    pub fn for_diagonal(diag: f32) -> Self {
+        Self {
+            coarse: 128,
+            fine: 32,
+            min_shell: 0.005 * diag,
+            near: 0.02,
+        }
+    }
+}
+
+/// A rendered view.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Rendered {
+    /// Colour over black.
+    pub rgb: Vec<[f32; 3]>,
+    /// Expected distance along the ray (`depth / opacity`; 0 where nothing was hit).
+    pub distance: Vec<f32>,
+    /// Opacity.
+    pub opacity: Vec<f32>,
+}
+
+/// Rays rendered per batch.
+const RAYS_PER_BATCH: usize = 4096;
+
+/// Renders every pixel of `view` from `field` (model frame) inside `bounds` with light code `light`.
+pub fn render_view(
+    field: &NeusField<f32>,
+    view: &View,
+    bounds: &Aabb,
+    light: u32,
+    options: &RenderOptions,
+) -> Rendered {
+    let n = view.rgb.len();
+    let mut out = Rendered {
+        rgb: vec![[0.0; 3]; n],
+        distance: vec![0.0; n],
+        opacity: vec![0.0; n],
+    };
+    let mut tape = Tape::default();
+    for start in (0..n).step_by(RAYS_PER_BATCH) {
+        let end = (start + RAYS_PER_BATCH).min(n);
+        let rays: Vec<(usize, Vec3, f32, f32)> = (start..end)
+            .filter_map(|i| {
+                let d = view.direction(i);
+                let (near, far) = bounds.intersect(view.origin(), d)?;
+                let near = near.max(options.near);
+                (far > near).then_some((i, d, near, far))
+            })
+            .collect();
+        let hits = find_surfaces(field, view.origin(), &rays, options, &mut tape);
+        shade(
+            field,
+            view.origin(),
+            &hits,
+            light,
+            options,
+            &mut tape,
+            &mut out,
+        );
+    }
+    out
+}
+
+/// First zero crossing of the SDF along each ray, from `options.coarse` SDF samples: `(pixel, dir, t)`.
+fn find_surfaces(
+    field: &NeusField<f32>,
+    o: Vec3,
+    rays: &[(usize, Vec3, f32, f32)],
+    options: &RenderOptions,
+    tape: &mut Tape<f32>,
+) -> Vec<(usize, Vec3, f32)> {
+    let k = options.coarse.max(2);
+    let mut points = Vec::with_capacity(rays.len() * k);
+    let mut ts = Vec::new();
+    for &(_, d, near, far) in rays {
+        uniform(near, far, k, &mut ts);
+        points.extend(ts.iter().map(|t| (o + *t * d).to_array()));
+    }
+    field.forward(&points, &[], &CodeSet::default(), Outputs::Sdf, tape);
+    let mut sdf = vec![0.0; points.len()];
+    tape.copy_sdf(&mut sdf);
+    rays.iter()
+        .enumerate()
+        .filter_map(|(r, &(i, d, near, far))| {
+            let s = &sdf[r * k..(r + 1) * k];
+            let step = (far - near) / (k - 1) as f32;
+            let j = (0..k - 1).find(|&j| s[j] > 0.0 && s[j + 1] <= 0.0)?;
+            let t = near + step * (j as f32 + s[j] / (s[j] - s[j + 1]));
+            Some((i, d, t))
+        })
+        .collect()
+}
+
+/// Volume-renders a shell around each found surface into `out`.
+fn shade(
+    field: &NeusField<f32>,
+    o: Vec3,
+    hits: &[(usize, Vec3, f32)],
+    light: u32,
+    options: &RenderOptions,
+    tape: &mut Tape<f32>,
+    out: &mut Rendered,
+) {
+    let k = options.fine.max(2);
+    let inv_s = field.inv_s();
+    let w = (5.0 / inv_s).max(options.min_shell);
+    let (mut points, mut dirs, mut all_t) = (Vec::new(), Vec::new(), Vec::new());
+    let mut ts = Vec::new();
+    for &(_, d, t) in hits {
+        uniform((t - w).max(options.near), t + w, k, &mut ts);
+        all_t.extend_from_slice(&ts);
+        points.extend(ts.iter().map(|t| (o + *t * d).to_array()));
+        dirs.extend(std::iter::repeat_n(d.to_array(), k));
+    }
+    let codes = CodeSet {
+        light: Codes::Fixed(light),
+        ..CodeSet::default()
+    };
+    field.forward(&points, &dirs, &codes, Outputs::Full, tape);
+    let mut sdf = vec![0.0; points.len()];
+    let mut rgb = vec![0.0; 3 * points.len()];
+    tape.copy_sdf(&mut sdf);
+    tape.copy_rgb(&mut rgb);
+    let (rgb3, _) = rgb.as_chunks::<3>();
+    let mut ray_tape = RayTape::default();
+    for (r, &(i, _, _)) in hits.iter().enumerate() {
+        let s = r * k..(r + 1) * k;
+        let res = render_ray(
+            &all_t[s.clone()],
+            &sdf[s.clone()],
+            &rgb3[s],
+            inv_s,
+            &mut ray_tape,
+        );
+        out.rgb[i] = res.rgb;
+        out.opacity[i] = res.opacity;
+        out.distance[i] = if res.opacity > 1e-3 {
+            res.depth / res.opacity
+        } else {
+            0.0
+        };
+    }
+}
+
+/// Figures of one held-out view.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ViewScore {
+    /// Sum of squared colour errors over the model's pixels (per channel).
+    pub squared_error: f64,
+    /// Number of channel values in `squared_error`.
+    pub count: usize,
+}
+
+/// PSNR (dB) from a mean squared error.
+pub fn psnr_of(mse: f64) -> f64 {
+    -10.0 * mse.max(1e-12).log10()
+}
+
+/// Squared colour error of `rendered` against `target` over the view's surface pixels.
+pub fn color_error(view: &View, rendered: &[[f32; 3]], target: &[[f32; 3]]) -> ViewScore {
+    let mut s = ViewScore::default();
+    for i in (0..view.rgb.len()).filter(|&i| view.class[i] == PixelClass::Surface) {
+        for c in 0..3 {
+            let e = (rendered[i][c] - target[i][c]) as f64;
+            s.squared_error += e * e;
+            s.count += 1;
+        }
+    }
+    s
+}
+
+/// Absolute distance errors (metres) where the view's depth is known and the render hit something.
+pub fn distance_errors(view: &View, rendered: &Rendered) -> Vec<f32> {
+    (0..view.rgb.len())
+        .filter(|&i| {
+            view.class[i] == PixelClass::Surface
+                && view.distance[i] > 0.0
+                && rendered.opacity[i] > 0.5
+        })
+        .map(|i| (rendered.distance[i] - view.distance[i]).abs())
+        .collect()
+}
+
+/// Median of a list (0 when empty).
+pub fn median(mut v: Vec<f32>) -> f32 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f32::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The view's colours re-lit by augmentation map `k` (surface pixels; others unchanged).
+pub fn relit_target(view: &View, augmentation: &Augmentation, k: usize) -> Vec<[f32; 3]> {
+    (0..view.rgb.len())
+        .map(|i| {
+            let n = Vec3::from(view.normal[i]);
+            if view.class[i] == PixelClass::Surface && n != Vec3::ZERO {
+                augmentation.relight_srgb(k, view.rgb[i], n)
+            } else {
+                view.rgb[i]
+            }
+        })
+        .collect()
+}
+
+/// The zero level set of `field` inside `bounds`, on a grid of `cells` per side.
+pub fn extract_mesh(field: &NeusField<f32>, bounds: &Aabb, cells: u32) -> TriMesh {
+    let grid = Grid::over(Vec3::from(bounds.min), Vec3::from(bounds.max), cells);
+    let sdf = |points: &[Vec3]| {
+        let pts: Vec<[f32; 3]> = points.iter().map(|p| p.to_array()).collect();
+        let mut tape = Tape::default();
+        field.forward(&pts, &[], &CodeSet::default(), Outputs::Sdf, &mut tape);
+        let mut s = vec![0.0; pts.len()];
+        tape.copy_sdf(&mut s);
+        s
+    };
+    extract_surface(&grid, &sdf)
+}
+
+/// Chamfer distance between two meshes, from `samples` points on each.
+pub fn mesh_chamfer(a: &TriMesh, b: &TriMesh, samples: usize) -> Chamfer {
+    chamfer(&a.sample_surface(samples), &b.sample_surface(samples))
+}
+
+/// Held-out figures of a model.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EvalReport {
+    /// Held-out views rendered.
+    pub views: usize,
+    /// PSNR (dB) over the model's pixels of every held-out view.
+    pub psnr_db: f64,
+    /// Median absolute distance error (metres).
+    pub median_depth_error_m: f32,
+    /// Fraction of the model's pixels the render hit (opacity > 0.5).
+    pub coverage: f32,
+    /// Light-code check per augmentation map: PSNR with its code and with code 0 against the re-lit view.
+    pub light_codes: Vec<LightCodeCheck>,
+}
+
+/// The light-code check of one augmentation map (on the first held-out view).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LightCodeCheck {
+    /// Map name.
+    pub name: String,
+    /// PSNR (dB) of the render with the map's light code.
+    pub psnr_with_code_db: f64,
+    /// PSNR (dB) of the render with code 0.
+    pub psnr_with_code_0_db: f64,
+}
+
+/// Renders every held-out view with its own light code and scores it; then runs the light-code check
+/// (augmentation map `k` has light code `first_augmented + k`).
+pub fn evaluate(
+    field: &NeusField<f32>,
+    views: &[View],
+    bounds: &Aabb,
+    augmentation: &Augmentation,
+    first_augmented: usize,
+) -> EvalReport {
+    let diag = (Vec3::from(bounds.max) - Vec3::from(bounds.min)).length();
+    let options = RenderOptions::for_diagonal(diag);
+    let (mut total, mut errors, mut hit, mut pixels) =
+        (ViewScore::default(), Vec::new(), 0usize, 0usize);
+    for view in views {
+        let r = render_view(field, view, bounds, view.light as u32, &options);
+        let s = color_error(view, &r.rgb, &view.rgb);
+        total.squared_error += s.squared_error;
+        total.count += s.count;
+        errors.extend(distance_errors(view, &r));
+        let surface = (0..view.rgb.len()).filter(|&i| view.class[i] == PixelClass::Surface);
+        for i in surface {
+            pixels += 1;
+            hit += usize::from(r.opacity[i] > 0.5);
+        }
+    }
+    let light_codes = match views.first() {
+        Some(view) => (0..augmentation.len())
+            .map(|k| {
+                let target = relit_target(view, augmentation, k);
+                let score = |code: usize| {
+                    let r = render_view(field, view, bounds, code as u32, &options);
+                    let s = color_error(view, &r.rgb, &target);
+                    psnr_of(s.squared_error / s.count.max(1) as f64)
+                };
+                LightCodeCheck {
+                    name: augmentation.names[k].clone(),
+                    psnr_with_code_db: score(first_augmented + k),
+                    psnr_with_code_0_db: score(0),
+                }
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    EvalReport {
+        views: views.len(),
+        psnr_db: psnr_of(total.squared_error / total.count.max(1) as f64),
+        median_depth_error_m: median(errors),
+        coverage: hit as f32 / pixels.max(1) as f32,
+        light_codes,
+    }
+}

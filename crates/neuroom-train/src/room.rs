@@ -1,0 +1,417 @@
+//! Training a whole room, and the model directory it writes:
+//! ```text
+//! <models>/<room>/manifest.json                     which ids use which model, room box, codes, stats
+//! <models>/<room>/background/{config.json, weights.safetensors}
+//! <models>/<room>/objects/<capture name>/{config.json, weights.safetensors}
+//! <models>/<room>/<model>/checkpoint/               resumable state while that model trains
+//! ```
+//! A model is finished when its `config.json` exists (it is written last, atomically). `train_room` skips
+//! finished models, resumes the one with a checkpoint, and rewrites the manifest after every model. Objects
+//! that name the same capture are instances of one model, trained once.
+
+use crate::augment::Augmentation;
+use crate::config::TrainConfig;
+use crate::dataset::{Aabb, Dataset, LoadOptions, Role};
+use crate::eval::{EvalReport, evaluate};
+use crate::losses::LossParts;
+use crate::progress::Progress;
+use crate::trainer::{LightCodes, ModelKind, Trainer, field_config};
+use neuroom_core::FormatError;
+use neuroom_core::formats::{Room, atomic_write, read_capture, read_room};
+use neuroom_field::NeusField;
+use neuroom_field::checkpoint::{self, CheckpointError};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Format tag of `manifest.json`.
+pub const MANIFEST_FORMAT: &str = "neuroom.models/1";
+
+/// What can go wrong training or loading a room's models.
+#[derive(Debug, thiserror::Error)]
+pub enum TrainError {
+    /// Bad input files (room, capture, images, environment maps).
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    /// A checkpoint or model that cannot be read or written.
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+    /// A problem with a file that is not one of the above, e.g. the manifest.
+    #[error("{path}: {message}")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// One model of a room: what it learns from and where it lives.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelSpec {
+    /// `background` or the capture folder's name.
+    pub name: String,
+    /// Object or background.
+    pub kind: ModelKind,
+    /// The capture folder.
+    pub capture: PathBuf,
+    /// Pixel classes and frame.
+    pub role: Role,
+    /// The model's box (object box, or the room box when `room.json` gives one).
+    pub bounds: Option<Aabb>,
+    /// Names of the objects using the model.
+    pub objects: Vec<String>,
+    /// Folder of the model relative to the room's model folder.
+    pub path: String,
+}
+
+/// The models a room needs: the background first, then one per distinct object capture.
+pub fn model_specs(room: &Room) -> Vec<ModelSpec> {
+    let mut specs = vec![ModelSpec {
+        name: "background".into(),
+        kind: ModelKind::Background,
+        capture: room.capture_dir(&room.background.capture),
+        role: Role::Background,
+        bounds: room_box(room),
+        objects: Vec::new(),
+        path: "background".into(),
+    }];
+    for (capture, members) in room.objects_by_capture() {
+        let first = members[0];
+        let name = capture
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| first.name.clone());
+        let half = first.size.as_vec3() * 0.5;
+        specs.push(ModelSpec {
+            path: format!("objects/{name}"),
+            name,
+            kind: ModelKind::Object,
+            capture: room.capture_dir(capture),
+            role: Role::Object {
+                ids: members.iter().map(|o| o.id).collect(),
+                capture_to_object: first.capture_to_object,
+            },
+            bounds: Some(Aabb {
+                min: (-half).to_array(),
+                max: half.to_array(),
+            }),
+            objects: members.iter().map(|o| o.name.clone()).collect(),
+        });
+    }
+    specs
+}
+
+/// The room box of `room.json`'s extra field `room_box` (`{min, max}`), when present and well formed.
+fn room_box(room: &Room) -> Option<Aabb> {
+    let b = room.extra.get("room_box")?;
+    let corner = |k: &str| -> Option<[f32; 3]> {
+        let v = b.get(k)?.as_array()?;
+        (v.len() == 3).then(|| std::array::from_fn(|a| v[a].as_f64().unwrap_or(f64::NAN) as f32))
+    };
+    let (min, max) = (corner("min")?, corner("max")?);
+    (0..3).all(|a| min[a] < max[a]).then_some(Aabb { min, max })
+}
+
+/// Figures of a trained model, stored in the manifest.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ModelStats {
+    /// Optimisation steps.
+    pub steps: u64,
+    /// Seconds spent in steps.
+    pub train_seconds: f64,
+    /// Seconds reading the capture.
+    pub load_seconds: f64,
+    /// Training rays.
+    pub rays: usize,
+    /// Loss of the last step.
+    pub final_loss: LossParts,
+    /// Learned NeuS sharpness.
+    pub inv_s: f32,
+    /// Held-out figures, when evaluated.
+    pub eval: Option<EvalReport>,
+}
+
+/// One model in the manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelEntry {
+    /// `background` or the capture name.
+    pub name: String,
+    /// Folder relative to the manifest.
+    pub path: String,
+    /// Object or background.
+    pub kind: ModelKind,
+    /// Instance ids drawn by this model.
+    pub ids: Vec<u16>,
+    /// Object names drawn by this model.
+    pub objects: Vec<String>,
+    /// The field's box in the model frame.
+    pub bounds: Aabb,
+    /// Light codes (capture lightings, then augmentation maps).
+    pub light_codes: LightCodes,
+    /// Number of appearance codes.
+    pub appearance_codes: usize,
+    /// Training figures.
+    pub stats: ModelStats,
+}
+
+/// `manifest.json` of a room's model folder.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// `neuroom.models/1`.
+    pub format: String,
+    /// Room name.
+    pub room: String,
+    /// The background model's box (world frame).
+    pub room_box: Option<Aabb>,
+    /// Finished models, background first.
+    pub models: Vec<ModelEntry>,
+    /// Whether every model of the room is finished.
+    pub complete: bool,
+}
+
+impl Manifest {
+    /// The model drawing instance `id`.
+    pub fn model_for(&self, id: u16) -> Option<&ModelEntry> {
+        self.models.iter().find(|m| m.ids.contains(&id))
+    }
+}
+
+/// What [`train_room`] did.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainSummary {
+    /// The room's model folder.
+    pub dir: PathBuf,
+    /// The manifest written.
+    pub manifest: Manifest,
+    /// Models trained (or resumed) in this call; the others were already finished.
+    pub trained: Vec<String>,
+    /// Wall-clock seconds of the call.
+    pub seconds: f64,
+}
+
+/// Trains the background and every distinct object model of the room at `room_dir`, into
+/// `models_out/<room name>/`; resumable (see the module documentation).
+pub fn train_room(
+    room_dir: &Path,
+    models_out: &Path,
+    config: &TrainConfig,
+    progress: &dyn Progress,
+) -> Result<TrainSummary, TrainError> {
+    with_threads(config.threads, || {
+        let start = Instant::now();
+        let room = read_room(room_dir)?;
+        let dir = models_out.join(&room.name);
+        let augmentation = Augmentation::load(&config.env_maps)?;
+        let mut manifest = Manifest {
+            format: MANIFEST_FORMAT.into(),
+            room: room.name.clone(),
+            room_box: None,
+            models: Vec::new(),
+            complete: false,
+        };
+        let mut trained = Vec::new();
+        for spec in model_specs(&room) {
+            let model_dir = dir.join(&spec.path);
+            let entry = match read_entry(&dir, &spec)? {
+                Some(entry) => entry,
+                None => {
+                    trained.push(spec.name.clone());
+                    train_model(&spec, &model_dir, config, &augmentation, progress)?.0
+                }
+            };
+            if spec.kind == ModelKind::Background {
+                manifest.room_box = Some(entry.bounds);
+            }
+            manifest.models.push(entry);
+            write_manifest(&dir, &manifest)?;
+        }
+        manifest.complete = true;
+        write_manifest(&dir, &manifest)?;
+        Ok(TrainSummary {
+            dir,
+            manifest,
+            trained,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    })
+}
+
+/// Runs `f` on a pool of `threads` workers (0 = the global pool).
+pub fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+        Ok(pool) if threads > 0 => pool.install(f),
+        _ => f(),
+    }
+}
+
+/// The manifest entry of a finished model (from its saved config), or `None` when it is not finished.
+fn read_entry(room_dir: &Path, spec: &ModelSpec) -> Result<Option<ModelEntry>, TrainError> {
+    let dir = room_dir.join(&spec.path);
+    if !dir.join("config.json").exists() {
+        return Ok(None);
+    }
+    let (_, _, meta) = checkpoint::load(&dir)?;
+    let entry =
+        serde_json::from_value(meta.trainer["entry"].clone()).map_err(|e| TrainError::File {
+            path: dir.join("config.json"),
+            message: format!("trainer.entry: {e}"),
+        })?;
+    Ok(Some(entry))
+}
+
+/// Reads the capture of `spec` into a dataset; returns it with the model's box (the room box falls back to
+/// the observed bounds) and the seconds it took.
+pub fn load_model_data(
+    spec: &ModelSpec,
+    config: &TrainConfig,
+) -> Result<(Dataset, Aabb, f64), TrainError> {
+    let t0 = Instant::now();
+    let capture = read_capture(&spec.capture)?;
+    let load_bounds = spec
+        .bounds
+        .filter(|_| spec.kind == ModelKind::Object)
+        .map(|b| {
+            let fc = field_config(spec.kind, b, &config.object, 1, 1, 0);
+            Aabb {
+                min: fc.bounds_min,
+                max: fc.bounds_max,
+            }
+        });
+    let options = LoadOptions {
+        holdout: config.holdout,
+        bounds: load_bounds,
+    };
+    let data = Dataset::load(&capture, &spec.role, &options)?;
+    let bounds = spec.bounds.unwrap_or(data.observed);
+    Ok((data, bounds, t0.elapsed().as_secs_f64()))
+}
+
+/// Loads the data of `spec`, trains (or resumes) its model into `model_dir`, evaluates it and writes the
+/// final model. Returns the manifest entry and the trained field.
+pub fn train_model(
+    spec: &ModelSpec,
+    model_dir: &Path,
+    config: &TrainConfig,
+    augmentation: &Augmentation,
+    progress: &dyn Progress,
+) -> Result<(ModelEntry, NeusField<f32>), TrainError> {
+    let (data, bounds, load_seconds) = load_model_data(spec, config)?;
+    let ckpt = model_dir.join("checkpoint");
+    let mut trainer = if ckpt.join("config.json").exists() {
+        Trainer::resume(&data, augmentation, config, spec.kind, &ckpt)?
+    } else {
+        Trainer::new(&data, augmentation, config, spec.kind, bounds)
+    };
+    trainer.run(&spec.name, Some(&ckpt), progress)?;
+    let fc = trainer.field.config();
+    let field_bounds = Aabb {
+        min: fc.bounds_min,
+        max: fc.bounds_max,
+    };
+    let lights = trainer.light_codes().clone();
+    let eval = (!data.held_out.is_empty()).then(|| {
+        evaluate(
+            &trainer.field,
+            &data.held_out,
+            &field_bounds,
+            augmentation,
+            lights.capture,
+        )
+    });
+    let entry = ModelEntry {
+        name: spec.name.clone(),
+        path: spec.path.clone(),
+        kind: spec.kind,
+        ids: match &spec.role {
+            Role::Object { ids, .. } => ids.clone(),
+            Role::Background => Vec::new(),
+        },
+        objects: spec.objects.clone(),
+        bounds: field_bounds,
+        light_codes: lights,
+        appearance_codes: fc.appearance_codes,
+        stats: ModelStats {
+            steps: trainer.state.step,
+            train_seconds: trainer.state.elapsed_s,
+            load_seconds,
+            rays: data.rays.len(),
+            final_loss: trainer.state.last,
+            inv_s: trainer.field.inv_s(),
+            eval,
+        },
+    };
+    let mut meta = trainer.trainer_json();
+    meta["entry"] = serde_json::to_value(&entry).map_err(|e| TrainError::File {
+        path: model_dir.join("config.json"),
+        message: e.to_string(),
+    })?;
+    checkpoint::save(model_dir, &trainer.field, None, meta)?;
+    let _ = std::fs::remove_dir_all(&ckpt);
+    let _ = std::fs::remove_file(model_dir.join("adam.safetensors"));
+    Ok((entry, trainer.field))
+}
+
+fn write_manifest(dir: &Path, manifest: &Manifest) -> Result<(), TrainError> {
+    let path = dir.join("manifest.json");
+    let text = serde_json::to_vec_pretty(manifest).map_err(|e| TrainError::File {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    atomic_write(&path, &text)?;
+    Ok(())
+}
+
+/// A room's trained models, loaded.
+#[derive(Clone, Debug)]
+pub struct RoomModels {
+    /// The manifest.
+    pub manifest: Manifest,
+    /// One field per manifest entry, in the same order.
+    pub fields: Vec<NeusField<f32>>,
+}
+
+impl RoomModels {
+    /// The background field and its entry.
+    pub fn background(&self) -> Option<(&ModelEntry, &NeusField<f32>)> {
+        self.manifest
+            .models
+            .iter()
+            .zip(&self.fields)
+            .find(|(m, _)| m.kind == ModelKind::Background)
+    }
+
+    /// The field drawing instance `id`, with its entry.
+    pub fn object(&self, id: u16) -> Option<(&ModelEntry, &NeusField<f32>)> {
+        self.manifest
+            .models
+            .iter()
+            .zip(&self.fields)
+            .find(|(m, _)| m.ids.contains(&id))
+    }
+}
+
+/// Reads a room's model folder (`<models>/<room>`): the manifest and every model it lists.
+pub fn load_room_models(dir: &Path) -> Result<RoomModels, TrainError> {
+    let path = dir.join("manifest.json");
+    let text = std::fs::read(&path).map_err(|e| TrainError::File {
+        path: path.clone(),
+        message: format!("cannot read: {e}"),
+    })?;
+    let manifest: Manifest = serde_json::from_slice(&text).map_err(|e| TrainError::File {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    if manifest.format != MANIFEST_FORMAT {
+        return Err(TrainError::File {
+            path,
+            message: format!("format {:?}, expected {MANIFEST_FORMAT:?}", manifest.format),
+        });
+    }
+    let fields = manifest
+        .models
+        .iter()
+        .map(|m| checkpoint::load(&dir.join(&m.path)).map(|(f, _, _)| f))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(RoomModels { manifest, fields })
+}

@@ -1,0 +1,638 @@
+//! The training loop of one model: mini-batches of rays, depth-guided sampling, the losses of
+//! [`crate::losses`], coarse-to-fine hash levels, Adam with polynomial decay, and resumable checkpoints.
+//!
+//! One step: draw `batch_rays` rays (a fixed fraction from empty rays for objects; a fraction of surface
+//! rays re-lit by an augmentation map with that map's light code), place samples along each (most in a shell
+//! around the observed distance, a few spread over the ray's span in the model's box; rays without depth
+//! spread all), query the field at every sample in parallel chunks, render and score each ray, add the SDF
+//! terms of every sample, back-propagate, add the eikonal term on a subset of samples, and take an Adam step.
+//!
+//! Determinism: all random draws come from one [`Pcg32`] in a fixed order, and the field's parallel
+//! reductions are ordered, so a run is reproducible for a given thread count; a checkpoint stores the step,
+//! the generator, Adam's moments and the fitted step count, and resuming continues bit for bit.
+
+use crate::augment::Augmentation;
+use crate::config::{ModelBudget, TrainConfig};
+use crate::dataset::{Aabb, Dataset};
+use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sample_zone, sdf_loss};
+use crate::progress::Progress;
+use crate::rng::Pcg32;
+use glam::Vec3;
+use neuroom_field::checkpoint::{self, CheckpointError};
+use neuroom_field::{
+    Adam, AdamConfig, CodeSet, Codes, NUM_GROUPS, NeusConfig, NeusField, Outputs, Params, Schedule,
+    Tape,
+};
+use neuroom_render::sampling::{depth_guided, stratified};
+use neuroom_render::volume::{RayTape, render_ray, render_ray_backward};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::time::Instant;
+
+/// Steps timed before a time budget fixes the total step count.
+const CALIBRATION_STEPS: u64 = 8;
+
+/// Progress of a run: what a checkpoint stores besides the field and Adam.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainState {
+    /// Steps taken.
+    pub step: u64,
+    /// Steps of the whole run (fitted to the time budget after calibration).
+    pub total_steps: u64,
+    /// Whether `total_steps` is final.
+    pub calibrated: bool,
+    /// The sampling generator.
+    pub rng: Pcg32,
+    /// Seconds spent in steps so far (over all sessions).
+    pub elapsed_s: f64,
+    /// Loss of the last step.
+    pub last: LossParts,
+}
+
+/// What kind of model is trained (changes sampling near the camera and the geometric initialisation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ModelKind {
+    /// A movable object, in its canonical frame.
+    Object,
+    /// The empty room, in the world frame.
+    Background,
+}
+
+/// Light-code layout of a model: the capture's own lightings, then one per augmentation map.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LightCodes {
+    /// Names in code order.
+    pub names: Vec<String>,
+    /// Number of capture lightings (codes `0..capture`); augmentation map `k` has code `capture + k`.
+    pub capture: usize,
+}
+
+/// The field configuration of a model of `kind` over `bounds` (model frame: the object's box, or the room).
+pub fn field_config(
+    kind: ModelKind,
+    bounds: Aabb,
+    budget: &ModelBudget,
+    lights: usize,
+    appearance: usize,
+    seed: u64,
+) -> NeusConfig {
+    let mut c = match kind {
+        ModelKind::Object => {
+            let half = std::array::from_fn(|a| 0.5 * (bounds.max[a] - bounds.min[a]));
+            let mut c = NeusConfig::object(half);
+            let centre: [f32; 3] = std::array::from_fn(|a| 0.5 * (bounds.max[a] + bounds.min[a]));
+            for a in 0..3 {
+                c.bounds_min[a] += centre[a];
+                c.bounds_max[a] += centre[a];
+            }
+            c.init.centre = centre;
+            c
+        }
+        ModelKind::Background => NeusConfig::room(bounds.min, bounds.max),
+    };
+    c.hash.log2_table = budget.log2_table;
+    c.hash.finest_resolution = budget.finest_resolution;
+    c.light_codes = lights.max(1);
+    c.appearance_codes = appearance.max(1);
+    c.seed = seed;
+    c
+}
+
+/// Reusable buffers of one step.
+#[derive(Debug, Default)]
+struct Batch {
+    offsets: Vec<usize>,
+    t: Vec<f32>,
+    points: Vec<[f32; 3]>,
+    dirs: Vec<[f32; 3]>,
+    appearance: Vec<u32>,
+    light: Vec<u32>,
+    targets: Vec<RayTarget>,
+    zones: Vec<SampleZone>,
+    sdf: Vec<f32>,
+    rgb: Vec<f32>,
+    d_sdf: Vec<f32>,
+    d_rgb: Vec<f32>,
+    eikonal: Vec<[f32; 3]>,
+}
+
+/// Trains one model on one dataset.
+pub struct Trainer<'a> {
+    data: &'a Dataset,
+    augmentation: &'a Augmentation,
+    config: TrainConfig,
+    budget: ModelBudget,
+    kind: ModelKind,
+    /// The field being learned.
+    pub field: NeusField<f32>,
+    adam: Adam,
+    grads: Params<f32>,
+    /// Step, generator and timing.
+    pub state: TrainState,
+    lights: LightCodes,
+    bounds: Aabb,
+    diag: f32,
+    surface_rays: Vec<u32>,
+    empty_rays: Vec<u32>,
+    batch: Batch,
+    tape: Tape<f32>,
+    eikonal_tape: Tape<f32>,
+    ray_tape: RayTape<f32>,
+}
+
+impl<'a> Trainer<'a> {
+    /// A fresh run: a newly initialised field over `bounds` (model frame).
+    pub fn new(
+        data: &'a Dataset,
+        augmentation: &'a Augmentation,
+        config: &TrainConfig,
+        kind: ModelKind,
+        bounds: Aabb,
+    ) -> Self {
+        let budget = budget_of(config, kind).clone();
+        let lights = light_codes(data, augmentation);
+        let appearance = if config.appearance_per_frame {
+            data.origins.len()
+        } else {
+            1
+        };
+        let fc = field_config(
+            kind,
+            bounds,
+            &budget,
+            lights.names.len(),
+            appearance,
+            config.seed,
+        );
+        let field = NeusField::new(fc);
+        let adam = Adam::new(AdamConfig::default(), &field.params);
+        let state = TrainState {
+            step: 0,
+            total_steps: budget.steps,
+            calibrated: budget.time_budget_s.is_none(),
+            rng: Pcg32::new(config.seed, 0x7A1E),
+            elapsed_s: 0.0,
+            last: LossParts::default(),
+        };
+        Self::assemble(data, augmentation, config, kind, field, adam, state, lights)
+    }
+
+    /// Continues the run saved in checkpoint folder `dir` (see [`Trainer::save`]).
+    pub fn resume(
+        data: &'a Dataset,
+        augmentation: &'a Augmentation,
+        config: &TrainConfig,
+        kind: ModelKind,
+        dir: &Path,
+    ) -> Result<Self, CheckpointError> {
+        let (field, adam, meta) = checkpoint::load(dir)?;
+        let bad = |message: String| CheckpointError::Tensors {
+            path: dir.join("config.json"),
+            message,
+        };
+        let adam =
+            adam.ok_or_else(|| bad("no optimiser state: not a training checkpoint".into()))?;
+        let state: TrainState = serde_json::from_value(meta.trainer["state"].clone())
+            .map_err(|e| bad(format!("trainer.state: {e}")))?;
+        let lights = light_codes(data, augmentation);
+        if field.config().light_codes != lights.names.len().max(1) {
+            return Err(bad(format!(
+                "{} light codes, this run has {}",
+                field.config().light_codes,
+                lights.names.len()
+            )));
+        }
+        Ok(Self::assemble(
+            data,
+            augmentation,
+            config,
+            kind,
+            field,
+            adam,
+            state,
+            lights,
+        ))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn assemble(
+        data: &'a Dataset,
+        augmentation: &'a Augmentation,
+        config: &TrainConfig,
+        kind: ModelKind,
+        field: NeusField<f32>,
+        adam: Adam,
+        state: TrainState,
+        lights: LightCodes,
+    ) -> Self {
+        let fc = field.config();
+        let bounds = Aabb {
+            min: fc.bounds_min,
+            max: fc.bounds_max,
+        };
+        let diag = (Vec3::from(bounds.max) - Vec3::from(bounds.min)).length();
+        let (mut surface_rays, mut empty_rays) = (Vec::new(), Vec::new());
+        for i in 0..data.rays.len() {
+            let target = if data.rays.empty[i] {
+                &mut empty_rays
+            } else {
+                &mut surface_rays
+            };
+            target.push(i as u32);
+        }
+        let grads = Params::zeros_like(&field.params);
+        Self {
+            data,
+            augmentation,
+            config: config.clone(),
+            budget: budget_of(config, kind).clone(),
+            kind,
+            field,
+            adam,
+            grads,
+            state,
+            lights,
+            bounds,
+            diag,
+            surface_rays,
+            empty_rays,
+            batch: Batch::default(),
+            tape: Tape::default(),
+            eikonal_tape: Tape::default(),
+            ray_tape: RayTape::default(),
+        }
+    }
+
+    /// The light codes of this model.
+    pub fn light_codes(&self) -> &LightCodes {
+        &self.lights
+    }
+
+    /// Whether the run has reached its step count or its time budget.
+    pub fn finished(&self) -> bool {
+        self.state.step >= self.state.total_steps
+            || self
+                .budget
+                .time_budget_s
+                .is_some_and(|b| self.state.elapsed_s >= b)
+    }
+
+    /// One optimisation step; returns its loss.
+    pub fn step(&mut self) -> LossParts {
+        let start = Instant::now();
+        let levels = self.config.start_levels
+            + (self.state.step / self.config.steps_per_level.max(1)) as usize;
+        self.field.set_active_levels(levels);
+        self.draw_batch();
+        let b = &self.batch;
+        let codes = CodeSet {
+            appearance: Codes::PerPoint(&b.appearance),
+            light: Codes::PerPoint(&b.light),
+            object: Codes::Fixed(0),
+        };
+        self.field
+            .forward(&b.points, &b.dirs, &codes, Outputs::Full, &mut self.tape);
+        let n = b.points.len();
+        self.batch.sdf.resize(n, 0.0);
+        self.batch.rgb.resize(3 * n, 0.0);
+        self.tape.copy_sdf(&mut self.batch.sdf);
+        self.tape.copy_rgb(&mut self.batch.rgb);
+        let (mut parts, d_inv_s) = self.ray_losses();
+        parts.sdf = self.sdf_losses();
+        let b = &self.batch;
+        let codes = CodeSet {
+            appearance: Codes::PerPoint(&b.appearance),
+            light: Codes::PerPoint(&b.light),
+            object: Codes::Fixed(0),
+        };
+        self.field.backward(
+            &codes,
+            &mut self.tape,
+            &b.d_sdf,
+            Some(&b.d_rgb),
+            &mut self.grads,
+            None,
+        );
+        self.field.backward_inv_s(d_inv_s, &mut self.grads);
+        parts.eikonal = self.eikonal();
+        let factor = self.schedule().factor(self.state.step);
+        let lr: [f32; NUM_GROUPS] = self.config.learning_rates.map(|r| r * factor);
+        self.adam.step(&mut self.field.params, &self.grads, &lr);
+        self.grads.fill_zero();
+        self.state.step += 1;
+        self.state.elapsed_s += start.elapsed().as_secs_f64();
+        self.state.last = parts;
+        self.calibrate();
+        parts
+    }
+
+    fn schedule(&self) -> Schedule {
+        Schedule::Polynomial {
+            warmup: self.config.warmup_steps,
+            total: self.state.total_steps,
+            power: self.config.decay_power,
+            floor: self.config.decay_floor,
+        }
+    }
+
+    /// With a time budget, fixes the step count from the mean step time once calibration steps have run.
+    fn calibrate(&mut self) {
+        let Some(budget) = self.budget.time_budget_s else {
+            return;
+        };
+        if self.state.calibrated || self.state.step < CALIBRATION_STEPS {
+            return;
+        }
+        let per_step = self.state.elapsed_s / self.state.step as f64;
+        let fitted = self.state.step + ((budget - self.state.elapsed_s).max(0.0) / per_step) as u64;
+        self.state.total_steps = fitted.min(self.budget.steps).max(self.state.step);
+        self.state.calibrated = true;
+    }
+
+    /// Draws the rays of a step and their samples, points, codes and targets.
+    fn draw_batch(&mut self) {
+        let b = &mut self.batch;
+        for v in [&mut b.t, &mut b.d_sdf, &mut b.d_rgb] {
+            v.clear();
+        }
+        b.offsets.clear();
+        b.points.clear();
+        b.dirs.clear();
+        b.appearance.clear();
+        b.light.clear();
+        b.targets.clear();
+        b.zones.clear();
+        b.offsets.push(0);
+        let inv_s = self.field.inv_s();
+        let shell = (5.0 / inv_s).clamp(self.budget.shell_min * self.diag, 0.1 * self.diag);
+        let band = self.budget.sdf_band * self.diag;
+        let mut samples = Vec::new();
+        let rays = &self.data.rays;
+        let rng = &mut self.state.rng;
+        for _ in 0..self.budget.batch_rays {
+            let pick_empty = !self.empty_rays.is_empty()
+                && (self.surface_rays.is_empty() || rng.next_f32() < self.config.empty_fraction);
+            let pool = if pick_empty {
+                &self.empty_rays
+            } else {
+                &self.surface_rays
+            };
+            let i = pool[rng.below(pool.len() as u32) as usize] as usize;
+            let (o, d) = (self.data.origin(i), Vec3::from(rays.dir[i]));
+            let Some((near, far)) = self.bounds.intersect(o, d) else {
+                continue;
+            };
+            let near = if self.kind == ModelKind::Background {
+                near.max(0.02)
+            } else {
+                near
+            };
+            if far <= near {
+                continue;
+            }
+            let distance = (rays.distance[i] > 0.0).then_some(rays.distance[i]);
+            let mut u = || rng.next_f32();
+            match distance {
+                Some(dist) if !pick_empty => depth_guided(
+                    near,
+                    far,
+                    dist,
+                    shell,
+                    self.budget.shell_samples,
+                    self.budget.uniform_samples,
+                    &mut u,
+                    &mut samples,
+                ),
+                _ => stratified(
+                    near,
+                    far,
+                    self.budget.shell_samples + self.budget.uniform_samples,
+                    &mut u,
+                    &mut samples,
+                ),
+            }
+            let frame = rays.frame[i] as usize;
+            let mut light = self.data.frame_light[frame] as u32;
+            let mut rgb = rays.color(i);
+            let normal = rays.normal(i);
+            if !pick_empty
+                && !self.augmentation.is_empty()
+                && rng.next_f32() < self.config.augment_fraction
+                && normal != Vec3::ZERO
+            {
+                let k = rng.below(self.augmentation.len() as u32) as usize;
+                rgb = self.augmentation.relight_srgb(k, rgb, normal);
+                light = (self.lights.capture + k) as u32;
+            }
+            let appearance = if self.config.appearance_per_frame {
+                frame as u32
+            } else {
+                0
+            };
+            let cos = if normal == Vec3::ZERO {
+                1.0
+            } else {
+                normal.dot(d).abs().max(0.1)
+            };
+            for &t in &samples {
+                b.t.push(t);
+                b.points.push((o + t * d).to_array());
+                b.dirs.push(d.to_array());
+                b.appearance.push(appearance);
+                b.light.push(light);
+                b.zones
+                    .push(sample_zone(t, distance, pick_empty, cos, band));
+            }
+            b.offsets.push(b.t.len());
+            b.targets.push(RayTarget {
+                rgb: (!pick_empty).then_some(rgb),
+                distance: distance.filter(|_| !pick_empty),
+                opacity: if pick_empty { 0.0 } else { 1.0 },
+            });
+        }
+        let n = b.t.len();
+        b.d_sdf.resize(n, 0.0);
+        b.d_rgb.resize(3 * n, 0.0);
+    }
+
+    /// Renders every ray of the batch, scores it, and writes the sample gradients; returns the loss parts
+    /// and `∂loss/∂inv_s`.
+    fn ray_losses(&mut self) -> (LossParts, f32) {
+        let b = &mut self.batch;
+        let w = self.config.weights;
+        let rays = b.targets.len();
+        let with_rgb = b.targets.iter().filter(|t| t.rgb.is_some()).count().max(1);
+        let with_depth = b
+            .targets
+            .iter()
+            .filter(|t| t.distance.is_some())
+            .count()
+            .max(1);
+        let scales = RayScales {
+            color: w.color / with_rgb as f32,
+            depth: w.depth / with_depth as f32,
+            mask: w.mask / rays.max(1) as f32,
+        };
+        let inv_s = self.field.inv_s();
+        let mut parts = LossParts::default();
+        let mut d_inv_s = 0.0;
+        let (rgb3, _) = b.rgb.as_chunks::<3>();
+        let (d_rgb3, _) = b.d_rgb.as_chunks_mut::<3>();
+        for (r, target) in b.targets.iter().enumerate() {
+            let (s, e) = (b.offsets[r], b.offsets[r + 1]);
+            let out = render_ray(
+                &b.t[s..e],
+                &b.sdf[s..e],
+                &rgb3[s..e],
+                inv_s,
+                &mut self.ray_tape,
+            );
+            let (p, g) = ray_loss(&out, target, &scales);
+            parts.color += p[0];
+            parts.depth += p[1];
+            parts.mask += p[2];
+            parts.color_mse += p[3] / with_rgb as f32;
+            d_inv_s += render_ray_backward(
+                &b.sdf[s..e],
+                inv_s,
+                &mut self.ray_tape,
+                &g,
+                &mut b.d_sdf[s..e],
+                &mut d_rgb3[s..e],
+            );
+        }
+        (parts, d_inv_s)
+    }
+
+    /// Adds the SDF supervision gradients of every sample; returns the weighted loss.
+    fn sdf_losses(&mut self) -> f32 {
+        let b = &mut self.batch;
+        let w = self.config.weights;
+        let near = b
+            .zones
+            .iter()
+            .filter(|z| matches!(z, SampleZone::Near { .. }))
+            .count()
+            .max(1) as f32;
+        let free = b
+            .zones
+            .iter()
+            .filter(|z| matches!(z, SampleZone::Free { .. } | SampleZone::Empty))
+            .count()
+            .max(1) as f32;
+        let mut loss = 0.0;
+        for ((zone, s), d) in b.zones.iter().zip(&b.sdf).zip(b.d_sdf.iter_mut()) {
+            let scale = match zone {
+                SampleZone::Near { .. } => w.sdf_near / near,
+                SampleZone::Free { .. } | SampleZone::Empty => w.sdf_free / free,
+                SampleZone::Unknown => continue,
+            };
+            let (l, g) = sdf_loss(*s, *zone);
+            loss += scale * l;
+            *d += scale * g;
+        }
+        loss
+    }
+
+    /// The eikonal term on every `eikonal_stride`-th sample, with a finite-difference step of a quarter of
+    /// the finest active cell.
+    fn eikonal(&mut self) -> f32 {
+        if self.config.weights.eikonal == 0.0 {
+            return 0.0;
+        }
+        let stride = self.config.eikonal_stride.max(1);
+        let b = &mut self.batch;
+        b.eikonal.clear();
+        b.eikonal.extend(b.points.iter().step_by(stride).copied());
+        let levels = self.field.active_levels();
+        let res = self.field.grid().levels()[levels - 1].resolution as f32;
+        let h = 0.25 * self.diag / 3f32.sqrt() / res;
+        self.field.eikonal(
+            &b.eikonal,
+            Codes::Fixed(0),
+            h.max(1e-4),
+            self.config.weights.eikonal,
+            &mut self.eikonal_tape,
+            &mut self.grads,
+        )
+    }
+
+    /// Writes a resumable checkpoint to folder `dir`: written beside it first, then swapped in, so `dir`
+    /// always holds a complete checkpoint (the previous one survives in `<dir>.old` while swapping).
+    pub fn save(&self, dir: &Path) -> Result<(), CheckpointError> {
+        let io = |path: &Path, source| CheckpointError::Io {
+            path: path.to_owned(),
+            source,
+        };
+        let tmp = dir.with_extension("tmp");
+        let old = dir.with_extension("old");
+        let _ = std::fs::remove_dir_all(&tmp);
+        checkpoint::save(&tmp, &self.field, Some(&self.adam), self.trainer_json())?;
+        if dir.exists() {
+            let _ = std::fs::remove_dir_all(&old);
+            std::fs::rename(dir, &old).map_err(|e| io(dir, e))?;
+        }
+        std::fs::rename(&tmp, dir).map_err(|e| io(dir, e))?;
+        let _ = std::fs::remove_dir_all(&old);
+        Ok(())
+    }
+
+    /// What the checkpoint's `trainer` field holds: the state, the light codes and the kind.
+    pub fn trainer_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "state": self.state,
+            "light_codes": self.lights,
+            "kind": self.kind,
+        })
+    }
+}
+
+/// The budget of a model kind.
+fn budget_of(config: &TrainConfig, kind: ModelKind) -> &ModelBudget {
+    match kind {
+        ModelKind::Object => &config.object,
+        ModelKind::Background => &config.background,
+    }
+}
+
+/// Light codes of a dataset with an augmentation.
+pub fn light_codes(data: &Dataset, augmentation: &Augmentation) -> LightCodes {
+    let mut names = data.light_names.clone();
+    let capture = names.len();
+    names.extend(augmentation.names.iter().cloned());
+    LightCodes { names, capture }
+}
+
+impl Trainer<'_> {
+    /// Steps until the run is finished, reporting to `progress` and writing a checkpoint to `checkpoint`
+    /// every `checkpoint_every` steps (and at the end).
+    pub fn run(
+        &mut self,
+        name: &str,
+        checkpoint: Option<&Path>,
+        progress: &dyn Progress,
+    ) -> Result<(), CheckpointError> {
+        progress.start(name, self.state.step, self.state.total_steps);
+        let every = self.config.checkpoint_every;
+        while !self.finished() {
+            let loss = self.step();
+            progress.step(self.state.step, self.state.total_steps, &loss);
+            if let Some(dir) = checkpoint.filter(|_| every > 0 && self.state.step % every == 0) {
+                self.save(dir)?;
+            }
+        }
+        if let Some(dir) = checkpoint {
+            self.save(dir)?;
+        }
+        let last = &self.state.last;
+        progress.finish(&format!(
+            "{} steps in {:.0} s, loss {:.4}, batch PSNR {:.2} dB, inv_s {:.0}",
+            self.state.step,
+            self.state.elapsed_s,
+            last.total(),
+            last.psnr(),
+            self.field.inv_s()
+        ));
+        Ok(())
+    }
+}
