@@ -3,9 +3,14 @@
 //! Layout: one flat parameter vector, level-major; inside a level, entry-major (`entry · F + feature`), so
 //! the `F` features of a grid vertex are adjacent. Coarse levels whose `(res + 1)³` vertices fit in the table
 //! are stored densely (no collisions); finer levels are hashed with the instant-ngp primes into `T` entries.
-//! Kernels loop level-outer, point-inner so one level's table stays hot in cache while a chunk streams past.
-//! The table gradient is scattered by a separate pass in which every rayon task owns whole levels: no atomics
-//! and no per-thread copies of the tables.
+//!
+//! Speed: the hash grid, not the networks, is what limits a CPU (random reads into tables of hundreds of
+//! kilobytes). So the kernels work one level at a time over as many points as the caller can give
+//! ([`HashGrid::forward_level`]): one level's table then stays in L2 while the points stream past, instead of
+//! all levels' tables being cycled through L2 for every point. The feature count `F` is a const generic so
+//! the corner loops unroll, and trilinear interpolation is done as nested lerps, which yields the value and
+//! its three partial derivatives in a few dozen operations. The table gradient is scattered by a separate
+//! pass in which every rayon task owns whole levels: no atomics and no per-thread copies of the tables.
 
 use crate::real::Real;
 use rayon::prelude::*;
@@ -16,7 +21,7 @@ use serde::{Deserialize, Serialize};
 pub struct HashGridConfig {
     /// Number of levels `L`.
     pub levels: usize,
-    /// Features per level `F`.
+    /// Features per level `F`: 1, 2, 4 or 8.
     pub features: usize,
     /// log2 of the table size `T` of a hashed level.
     pub log2_table: u32,
@@ -46,6 +51,36 @@ pub struct Level {
     pub dense: bool,
 }
 
+/// Where element `(point, column)` of an encoding-shaped buffer lives: `point · point_stride + column ·
+/// column_stride`. Row-major buffers have `column_stride = 1`; column-major ones `point_stride = 1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Strides {
+    /// Distance between consecutive points.
+    pub point: usize,
+    /// Distance between consecutive columns.
+    pub column: usize,
+}
+
+impl Strides {
+    /// Row-major rows of `row` values.
+    pub fn rows(row: usize) -> Self {
+        Self {
+            point: row,
+            column: 1,
+        }
+    }
+
+    /// Column-major columns of `column` values.
+    pub fn columns(column: usize) -> Self {
+        Self { point: 1, column }
+    }
+
+    #[inline(always)]
+    fn at(self, point: usize, column: usize) -> usize {
+        point * self.point + column * self.column
+    }
+}
+
 /// A hash encoding: the configuration plus the derived level table. Parameters live outside (see
 /// [`crate::params`]) so that the same grid serves `f32` training and `f64` tests.
 #[derive(Clone, Debug)]
@@ -55,15 +90,41 @@ pub struct HashGrid {
     num_params: usize,
 }
 
-/// Largest supported `F` (features per level).
-pub const MAX_FEATURES: usize = 8;
-
 const PRIME_Y: u32 = 2_654_435_761;
 const PRIME_Z: u32 = 805_459_861;
 
+/// Calls `$body` with `$f` bound to the configuration's feature count as a constant.
+macro_rules! with_features {
+    ($features:expr, $f:ident => $body:expr) => {
+        match $features {
+            1 => {
+                const $f: usize = 1;
+                $body
+            }
+            2 => {
+                const $f: usize = 2;
+                $body
+            }
+            4 => {
+                const $f: usize = 4;
+                $body
+            }
+            8 => {
+                const $f: usize = 8;
+                $body
+            }
+            other => unreachable!("checked by HashGrid::new: {other} features"),
+        }
+    };
+}
+
 impl HashGrid {
-    /// Derives the level table of a configuration.
+    /// Derives the level table of a configuration. Panics unless `F ∈ {1, 2, 4, 8}`.
     pub fn new(config: HashGridConfig) -> Self {
+        assert!(
+            matches!(config.features, 1 | 2 | 4 | 8),
+            "hash grid: features per level must be 1, 2, 4 or 8"
+        );
         let table = 1usize << config.log2_table;
         let growth = if config.levels > 1 {
             ((config.finest_resolution as f64).ln() - (config.base_resolution as f64).ln())
@@ -112,9 +173,9 @@ impl HashGrid {
         self.num_params
     }
 
-    /// Encodes `u.len()` points of `[0,1]³` into rows of `out` (row `p` starts at `p · stride`, columns
+    /// Encodes `u.len()` points of `[0,1]³` into `out` (element `(p, column)` at `strides`, columns
     /// `0..L·F`). Levels `active..` output zero (coarse-to-fine training). With `jac`, also writes
-    /// `d enc / d u` as `[point][column][axis]` (length `n · L·F · 3`), which the normal and the position
+    /// `d enc / d u` as `[column][point][axis]` (length `L·F · n · 3`), which the normal and the position
     /// gradient need.
     pub fn forward<T: Real>(
         &self,
@@ -122,57 +183,59 @@ impl HashGrid {
         u: &[[T; 3]],
         active: usize,
         out: &mut [T],
-        stride: usize,
+        strides: Strides,
         mut jac: Option<&mut [T]>,
     ) {
-        let f = self.config.features;
-        assert!(
-            f <= MAX_FEATURES,
-            "at most {MAX_FEATURES} features per level"
-        );
-        let width = self.config.output_dim();
-        for (l, level) in self.levels.iter().enumerate() {
-            let res = T::from_usize(level.resolution);
-            let entries = &table[level.offset..level.offset + level.entries * f];
-            for (p, x) in u.iter().enumerate() {
-                // Accumulate in registers, then store once.
-                let mut acc = [T::ZERO; MAX_FEATURES];
-                let mut dacc = [[T::ZERO; 3]; MAX_FEATURES];
-                if l < active {
-                    let want_jac = jac.is_some();
-                    self.cell(level, x).for_corners(|idx, w, dw| {
-                        let e = &entries[idx * f..idx * f + f];
-                        for k in 0..f {
-                            acc[k] += w * e[k];
-                            if want_jac {
-                                for a in 0..3 {
-                                    dacc[k][a] += dw[a] * e[k];
-                                }
-                            }
-                        }
-                    });
-                }
-                out[p * stride + l * f..p * stride + (l + 1) * f].copy_from_slice(&acc[..f]);
-                if let Some(j) = jac.as_deref_mut() {
-                    let jrow = &mut j[(p * width + l * f) * 3..(p * width + (l + 1) * f) * 3];
-                    for k in 0..f {
-                        for a in 0..3 {
-                            jrow[k * 3 + a] = dacc[k][a] * res;
-                        }
-                    }
-                }
-            }
+        let block = u.len() * self.config.features * 3;
+        for l in 0..self.levels.len() {
+            let j = jac
+                .as_deref_mut()
+                .map(|j| &mut j[l * block..(l + 1) * block]);
+            self.forward_level(l, table, u, active, out, strides, j);
         }
     }
 
+    /// Level `l` of [`HashGrid::forward`]: writes columns `l·F..(l+1)·F` of `out` and, with `jac`, this
+    /// level's part of the Jacobian (`[feature][point][axis]`, length `F · n · 3`). Callers that encode
+    /// many chunks run the levels outermost so that each level's table is read from cache.
+    #[allow(clippy::too_many_arguments)] // table, points, level mask, two strided outputs
+    pub fn forward_level<T: Real>(
+        &self,
+        l: usize,
+        table: &[T],
+        u: &[[T; 3]],
+        active: usize,
+        out: &mut [T],
+        strides: Strides,
+        jac: Option<&mut [T]>,
+    ) {
+        let f = self.config.features;
+        if l >= active {
+            for p in 0..u.len() {
+                for k in 0..f {
+                    out[strides.at(p, l * f + k)] = T::ZERO;
+                }
+            }
+            if let Some(j) = jac {
+                j.fill(T::ZERO);
+            }
+            return;
+        }
+        let level = &self.levels[l];
+        let entries = &table[level.offset..level.offset + level.entries * f];
+        with_features!(f, F => match jac {
+            Some(j) => encode_level::<T, F, true>(level, entries, u, out, strides, l * F, j),
+            None => encode_level::<T, F, false>(level, entries, u, out, strides, l * F, &mut []),
+        })
+    }
+
     /// Adds `Σ_points d_enc · ∂enc/∂table` to `grad` (same layout as the table), for the first `active`
-    /// levels. The points come in segments `(u, d_enc)`: `d_enc` holds one row per point whose first `L·F`
-    /// columns are the encoding's gradient, rows `stride` apart (so a chunk's MLP input gradient serves
-    /// directly). Runs in parallel, one task per level: each task owns its level's slice of `grad`.
+    /// levels. The points come in segments `(u, d_enc)`; element `(p, column)` of a segment's `d_enc` is at
+    /// `strides`. Runs in parallel, one task per level: each task owns its level's slice of `grad`.
     pub fn backward_table<T: Real>(
         &self,
         segments: &[(&[[T; 3]], &[T])],
-        stride: usize,
+        strides: Strides,
         active: usize,
         grad: &mut [T],
     ) {
@@ -187,95 +250,133 @@ impl HashGrid {
             .into_par_iter()
             .enumerate()
             .take(active)
-            .for_each(|(l, g)| self.backward_level(l, segments, stride, g));
-    }
-
-    /// Scatter of one level's gradient into that level's slice of the table gradient.
-    fn backward_level<T: Real>(
-        &self,
-        l: usize,
-        segments: &[(&[[T; 3]], &[T])],
-        stride: usize,
-        grad: &mut [T],
-    ) {
-        let f = self.config.features;
-        let level = &self.levels[l];
-        for (u, d_enc) in segments {
-            for (p, x) in u.iter().enumerate() {
-                let d = &d_enc[p * stride + l * f..p * stride + (l + 1) * f];
-                if d.iter().all(|v| *v == T::ZERO) {
-                    continue;
-                }
-                self.cell(level, x).for_corners(|idx, w, _| {
-                    for (g, dv) in grad[idx * f..idx * f + f].iter_mut().zip(d) {
-                        *g += w * *dv;
+            .for_each(|(l, g)| {
+                let level = &self.levels[l];
+                with_features!(self.config.features, F => {
+                    for (u, d_enc) in segments {
+                        scatter_level::<T, F>(level, u, d_enc, strides, l * F, g);
                     }
-                });
+                })
+            });
+    }
+}
+
+/// A point's cell in one level: the 8 corner entries (corner `c` is at `+(c&1, c>>1&1, c>>2&1)`) and the
+/// fractional position inside the cell.
+#[inline(always)]
+fn cell<T: Real>(level: &Level, x: &[T; 3]) -> ([u32; 8], [T; 3]) {
+    let res = level.resolution as u32;
+    let resf = T::from_usize(level.resolution);
+    let mut base = [0u32; 3];
+    let mut frac = [T::ZERO; 3];
+    for a in 0..3 {
+        let pos = (x[a] * resf).max(T::ZERO).min(resf);
+        // `pos ≥ 0`, so truncation is the floor.
+        let i = pos.to_u32().min(res - 1);
+        base[a] = i;
+        frac[a] = pos - T::from_u32(i);
+    }
+    let [bx, by, bz] = base;
+    let idx = if level.dense {
+        let side = res + 1;
+        let b = bx + side * (by + side * bz);
+        let (dy, dz) = (side, side * side);
+        [
+            b,
+            b + 1,
+            b + dy,
+            b + dy + 1,
+            b + dz,
+            b + dz + 1,
+            b + dz + dy,
+            b + dz + dy + 1,
+        ]
+    } else {
+        let mask = level.entries as u32 - 1;
+        let (y0, z0) = (by.wrapping_mul(PRIME_Y), bz.wrapping_mul(PRIME_Z));
+        let (y1, z1) = (y0.wrapping_add(PRIME_Y), z0.wrapping_add(PRIME_Z));
+        let (x0, x1) = (bx, bx + 1);
+        [
+            (x0 ^ y0 ^ z0) & mask,
+            (x1 ^ y0 ^ z0) & mask,
+            (x0 ^ y1 ^ z0) & mask,
+            (x1 ^ y1 ^ z0) & mask,
+            (x0 ^ y0 ^ z1) & mask,
+            (x1 ^ y0 ^ z1) & mask,
+            (x0 ^ y1 ^ z1) & mask,
+            (x1 ^ y1 ^ z1) & mask,
+        ]
+    };
+    (idx, frac)
+}
+
+/// One level of the forward pass over all points (see [`HashGrid::forward_level`]). With `JAC`, `jac`
+/// receives `d value / d u` as `[feature][point][axis]`.
+#[inline(always)]
+fn encode_level<T: Real, const F: usize, const JAC: bool>(
+    level: &Level,
+    entries: &[T],
+    u: &[[T; 3]],
+    out: &mut [T],
+    strides: Strides,
+    column: usize,
+    jac: &mut [T],
+) {
+    let n = u.len();
+    let res = T::from_usize(level.resolution);
+    for (p, x) in u.iter().enumerate() {
+        let (idx, [fx, fy, fz]) = cell(level, x);
+        let c: [[T; F]; 8] = std::array::from_fn(|k| {
+            let i = idx[k] as usize * F;
+            std::array::from_fn(|f| entries[i + f])
+        });
+        for f in 0..F {
+            // Nested lerps: along x (4 edges), then y (2), then z, carrying the partial derivatives.
+            let ex: [T; 4] = std::array::from_fn(|e| c[2 * e + 1][f] - c[2 * e][f]);
+            let ax: [T; 4] = std::array::from_fn(|e| c[2 * e][f] + fx * ex[e]);
+            let ay = [ax[1] - ax[0], ax[3] - ax[2]];
+            let by = [ax[0] + fy * ay[0], ax[2] + fy * ay[1]];
+            out[strides.at(p, column + f)] = by[0] + fz * (by[1] - by[0]);
+            if JAC {
+                let dx = [ex[0] + fy * (ex[1] - ex[0]), ex[2] + fy * (ex[3] - ex[2])];
+                let j = &mut jac[(f * n + p) * 3..(f * n + p) * 3 + 3];
+                j[0] = (dx[0] + fz * (dx[1] - dx[0])) * res;
+                j[1] = (ay[0] + fz * (ay[1] - ay[0])) * res;
+                j[2] = (by[1] - by[0]) * res;
             }
         }
     }
-
-    /// The cell of `x` in a level: base vertex, fractional position and how vertices are indexed.
-    #[inline(always)]
-    fn cell<T: Real>(&self, level: &Level, x: &[T; 3]) -> Cell<T> {
-        let res = level.resolution;
-        let resf = T::from_usize(res);
-        let mut base = [0u32; 3];
-        let mut frac = [T::ZERO; 3];
-        for a in 0..3 {
-            let pos = (x[a] * resf).max(T::ZERO).min(resf);
-            // `pos ≥ 0`, so truncation is the floor.
-            let i = pos.to_usize().min(res - 1);
-            base[a] = i as u32;
-            frac[a] = pos - T::from_usize(i);
-        }
-        Cell {
-            base,
-            frac,
-            dense: level.dense,
-            side: (res + 1) as u32,
-            mask: level.entries as u32 - 1,
-        }
-    }
 }
 
-/// A point's cell in one level.
-struct Cell<T> {
-    base: [u32; 3],
-    frac: [T; 3],
-    dense: bool,
-    side: u32,
-    mask: u32,
-}
-
-impl<T: Real> Cell<T> {
-    /// Calls `visit(entry, weight, d weight / d frac)` for the 8 corners.
-    #[inline(always)]
-    fn for_corners(&self, mut visit: impl FnMut(usize, T, [T; 3])) {
-        let [fx, fy, fz] = self.frac;
+/// One level of the table gradient: `grad[corner] += weight · d_enc` for every point and corner.
+#[inline(always)]
+fn scatter_level<T: Real, const F: usize>(
+    level: &Level,
+    u: &[[T; 3]],
+    d_enc: &[T],
+    strides: Strides,
+    column: usize,
+    grad: &mut [T],
+) {
+    for (p, x) in u.iter().enumerate() {
+        let d: [T; F] = std::array::from_fn(|f| d_enc[strides.at(p, column + f)]);
+        if d.iter().all(|v| *v == T::ZERO) {
+            continue;
+        }
+        let (idx, [fx, fy, fz]) = cell(level, x);
         let wx = [T::ONE - fx, fx];
-        let wy = [T::ONE - fy, fy];
-        let wz = [T::ONE - fz, fz];
-        let sign = [-T::ONE, T::ONE];
-        for c in 0..8usize {
-            let (i, j, k) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
-            let (x, y, z) = (
-                self.base[0] + i as u32,
-                self.base[1] + j as u32,
-                self.base[2] + k as u32,
-            );
-            let idx = if self.dense {
-                (x + self.side * (y + self.side * z)) as usize
-            } else {
-                ((x ^ y.wrapping_mul(PRIME_Y) ^ z.wrapping_mul(PRIME_Z)) & self.mask) as usize
-            };
-            let w = wx[i] * wy[j] * wz[k];
-            let dw = [
-                sign[i] * wy[j] * wz[k],
-                wx[i] * sign[j] * wz[k],
-                wx[i] * wy[j] * sign[k],
-            ];
-            visit(idx, w, dw);
+        let wyz = [
+            (T::ONE - fy) * (T::ONE - fz),
+            fy * (T::ONE - fz),
+            (T::ONE - fy) * fz,
+            fy * fz,
+        ];
+        for (k, i) in idx.iter().enumerate() {
+            let w = wx[k & 1] * wyz[k >> 1];
+            let g = &mut grad[*i as usize * F..*i as usize * F + F];
+            for f in 0..F {
+                g[f] += w * d[f];
+            }
         }
     }
 }

@@ -17,7 +17,7 @@
 //! weights and the network), normalised, as an input without gradient through it. The eikonal loss instead
 //! uses central finite differences ([`NeusField::eikonal`]), so no second derivatives are ever needed.
 
-use crate::hash::{HashGrid, HashGridConfig};
+use crate::hash::{HashGrid, HashGridConfig, Strides};
 use crate::mlp::{Activation, Mlp, MlpConfig, MlpWorkspace};
 use crate::params::{Group, Params};
 use crate::real::Real;
@@ -230,6 +230,7 @@ pub struct Workspace<T> {
     n: usize,
     outputs: Option<Outputs>,
     u: Vec<[T; 3]>,
+    enc: Vec<T>,
     sdf_in: Vec<T>,
     jac: Vec<T>,
     sdf_ws: MlpWorkspace<T>,
@@ -240,6 +241,7 @@ pub struct Workspace<T> {
     base_grad: Vec<[T; 3]>,
     d_out: Vec<T>,
     d_sdf_in: Vec<T>,
+    d_enc: Vec<T>,
     d_color_in: Vec<T>,
 }
 
@@ -407,6 +409,7 @@ impl<T: Real> NeusField<T> {
             n: 0,
             outputs: None,
             u: vec![[T::ZERO; 3]; CHUNK],
+            enc: vec![T::ZERO; CHUNK * self.config.hash.output_dim()],
             sdf_in: vec![T::ZERO; CHUNK * si],
             jac: vec![T::ZERO; CHUNK * self.config.hash.output_dim() * 3],
             sdf_ws: self.sdf_mlp.workspace(CHUNK),
@@ -417,6 +420,7 @@ impl<T: Real> NeusField<T> {
             base_grad: vec![[T::ZERO; 3]; CHUNK],
             d_out: vec![T::ZERO; CHUNK * so],
             d_sdf_in: vec![T::ZERO; CHUNK * si],
+            d_enc: vec![T::ZERO; CHUNK * self.config.hash.output_dim()],
             d_color_in: vec![T::ZERO; CHUNK * ci],
         }
     }
@@ -455,12 +459,19 @@ impl<T: Real> NeusField<T> {
         outputs: Outputs,
         ws: &mut Workspace<T>,
     ) {
+        self.begin_chunk(points, outputs, ws);
+        for l in 0..self.config.hash.levels {
+            self.encode_level(l, ws);
+        }
+        self.finish_chunk(points, dirs, codes, ws);
+    }
+
+    /// First stage of a chunk's forward pass: maps the points into the unit cube.
+    pub(crate) fn begin_chunk(&self, points: &[[T; 3]], outputs: Outputs, ws: &mut Workspace<T>) {
         let n = points.len();
         assert!(n <= CHUNK, "forward_chunk: {n} points exceed CHUNK");
         ws.n = n;
         ws.outputs = Some(outputs);
-        let si = self.sdf_in_dim();
-        let enc = self.config.hash.output_dim();
         for (u, x) in ws.u.iter_mut().zip(points) {
             *u = std::array::from_fn(|a| {
                 ((x[a] - self.lo[a]) * self.inv_ext[a])
@@ -468,18 +479,42 @@ impl<T: Real> NeusField<T> {
                     .min(T::ONE)
             });
         }
-        let jac = (outputs != Outputs::Sdf).then_some(&mut ws.jac[..n * enc * 3]);
-        let table = self.params.get(Group::Hash);
-        self.grid.forward(
-            table,
+    }
+
+    /// Hash level `l` of a chunk (after [`NeusField::begin_chunk`]): the encoding columns of the SDF input
+    /// and, when a gradient is wanted, the level's Jacobian. Batched passes run the levels outermost across
+    /// several chunks so a level's table stays in cache.
+    pub(crate) fn encode_level(&self, l: usize, ws: &mut Workspace<T>) {
+        let n = ws.n;
+        let block = n * self.config.hash.features * 3;
+        let jac =
+            (ws.outputs != Some(Outputs::Sdf)).then(|| &mut ws.jac[l * block..(l + 1) * block]);
+        self.grid.forward_level(
+            l,
+            self.params.get(Group::Hash),
             &ws.u[..n],
             self.active_levels,
-            &mut ws.sdf_in,
-            si,
+            &mut ws.enc,
+            Strides::columns(CHUNK),
             jac,
         );
+    }
+
+    /// Last stage of a chunk's forward pass, after every level is encoded: the networks.
+    pub(crate) fn finish_chunk(
+        &self,
+        points: &[[T; 3]],
+        dirs: &[[T; 3]],
+        codes: &CodeSet,
+        ws: &mut Workspace<T>,
+    ) {
+        let n = ws.n;
+        let outputs = ws.outputs.expect("begin_chunk ran");
+        let si = self.sdf_in_dim();
+        let enc = self.config.hash.output_dim();
         let od = self.config.object_dim();
         let objects = self.params.get(Group::Object);
+        transpose(&ws.enc, CHUNK, &mut ws.sdf_in, si, enc, n);
         for (p, u) in ws.u[..n].iter().enumerate() {
             let row = &mut ws.sdf_in[p * si + enc..(p + 1) * si];
             for a in 0..3 {
@@ -529,25 +564,32 @@ impl<T: Real> NeusField<T> {
             None,
             Some((&mut ws.d_sdf_in, si)),
         );
-        for p in 0..n {
-            let g = self.position_grad(&ws.d_sdf_in[p * si..(p + 1) * si], &ws.jac, p);
-            let b = ws.base_grad[p];
-            ws.gradient[p] = std::array::from_fn(|a| g[a] + b[a]);
+        self.position_grads(&ws.d_sdf_in, &ws.jac, n, &mut ws.gradient);
+        for (g, b) in ws.gradient[..n].iter_mut().zip(&ws.base_grad) {
+            *g = std::array::from_fn(|a| g[a] + b[a]);
         }
     }
 
-    /// `∂/∂x` of the network part, given the gradient of a loss with respect to the SDF network's input row.
-    #[inline]
-    fn position_grad(&self, d_in: &[T], jac: &[T], p: usize) -> [T; 3] {
-        let enc = self.config.hash.output_dim();
-        let jrow = &jac[p * enc * 3..(p + 1) * enc * 3];
-        let mut g = [T::ZERO; 3];
-        for (c, d) in d_in[..enc].iter().enumerate() {
-            for a in 0..3 {
-                g[a] += *d * jrow[c * 3 + a];
+    /// `∂/∂x` of the network part for the `n` points of a chunk, given the gradient of a loss with respect
+    /// to the SDF network's input rows `d_in` and the hash Jacobian `jac` (`[column][point][axis]`).
+    fn position_grads(&self, d_in: &[T], jac: &[T], n: usize, out: &mut [[T; 3]]) {
+        let (enc, si) = (self.config.hash.output_dim(), self.sdf_in_dim());
+        let out = &mut out[..n];
+        out.fill([T::ZERO; 3]);
+        for c in 0..enc {
+            let jc = &jac[c * n * 3..(c + 1) * n * 3];
+            for (p, (g, j)) in out.iter_mut().zip(jc.chunks_exact(3)).enumerate() {
+                let d = d_in[p * si + c];
+                for a in 0..3 {
+                    g[a] += d * j[a];
+                }
             }
         }
-        std::array::from_fn(|a| (g[a] + T::from_f64(2.0) * d_in[enc + a]) * self.inv_ext[a])
+        for (p, g) in out.iter_mut().enumerate() {
+            for a in 0..3 {
+                g[a] = (g[a] + T::from_f64(2.0) * d_in[p * si + enc + a]) * self.inv_ext[a];
+            }
+        }
     }
 
     /// Colour network forward; input row `[feature, appearance, light, SH(dir), normal]`.
@@ -649,6 +691,7 @@ impl<T: Real> NeusField<T> {
             Some((&mut ws.d_sdf_in, si)),
         );
         let (enc, od) = (self.config.hash.output_dim(), self.config.object_dim());
+        transpose(&ws.d_sdf_in, si, &mut ws.d_enc, CHUNK, n, enc);
         if od > 0 {
             for p in 0..n {
                 let c = codes.object.get(p);
@@ -661,10 +704,9 @@ impl<T: Real> NeusField<T> {
                 matches!(ws.outputs, Some(o) if o != Outputs::Sdf),
                 "backward_chunk: d_points needs a gradient"
             );
-            for (p, dp) in d_points[..n].iter_mut().enumerate() {
-                let gnet = self.position_grad(&ws.d_sdf_in[p * si..(p + 1) * si], &ws.jac, p);
-                let gbase = ws.base_grad[p];
-                *dp = std::array::from_fn(|a| gnet[a] + d_sdf[p] * gbase[a]);
+            self.position_grads(&ws.d_sdf_in, &ws.jac, n, d_points);
+            for ((dp, gb), d) in d_points[..n].iter_mut().zip(&ws.base_grad).zip(d_sdf) {
+                *dp = std::array::from_fn(|a| dp[a] + *d * gb[a]);
             }
         }
     }
@@ -672,17 +714,33 @@ impl<T: Real> NeusField<T> {
     /// Adds the hash-table gradient left by [`NeusField::backward_chunk`] in `workspaces` to the hash
     /// group of `grads`, one rayon task per level.
     pub fn scatter_hash_grads(&self, workspaces: &[Workspace<T>], grads: &mut Params<T>) {
-        let si = self.sdf_in_dim();
         let segments: Vec<(&[[T; 3]], &[T])> = workspaces
             .iter()
-            .map(|w| (&w.u[..w.n], &w.d_sdf_in[..w.n * si]))
+            .map(|w| (&w.u[..w.n], &w.d_enc[..]))
             .collect();
         self.grid.backward_table(
             &segments,
-            si,
+            Strides::columns(CHUNK),
             self.active_levels,
             grads.get_mut(Group::Hash),
         );
+    }
+}
+
+/// Copies the `rows × cols` matrix held row-major in `src` (row stride `src_rs`) into `dst` as its
+/// transpose (row stride `dst_rs`): `dst[c · dst_rs + r] = src[r · src_rs + c]`.
+fn transpose<T: Real>(
+    src: &[T],
+    src_rs: usize,
+    dst: &mut [T],
+    dst_rs: usize,
+    rows: usize,
+    cols: usize,
+) {
+    for r in 0..rows {
+        for c in 0..cols {
+            dst[c * dst_rs + r] = src[r * src_rs + c];
+        }
     }
 }
 

@@ -50,10 +50,10 @@ pub trait Real:
     fn from_usize(x: usize) -> Self {
         Self::from_f64(x as f64)
     }
-    /// Truncation to a non-negative grid coordinate.
-    fn to_usize(self) -> usize {
-        self.to_f64() as usize
-    }
+    /// Truncation to a non-negative grid coordinate, without a detour through `f64`.
+    fn to_u32(self) -> u32;
+    /// Conversion from a grid coordinate (exact below 2^24).
+    fn from_u32(x: u32) -> Self;
     /// Logistic sigmoid `1 / (1 + e^-x)`.
     fn sigmoid(self) -> Self {
         Self::ONE / (Self::ONE + (-self).exp())
@@ -72,6 +72,14 @@ macro_rules! impl_real {
             #[inline(always)]
             fn to_f64(self) -> f64 {
                 self as f64
+            }
+            #[inline(always)]
+            fn to_u32(self) -> u32 {
+                self as u32
+            }
+            #[inline(always)]
+            fn from_u32(x: u32) -> Self {
+                x as $t
             }
             #[inline(always)]
             fn exp(self) -> Self {

@@ -1,6 +1,6 @@
 //! Finite-difference checks of every hand-written backward pass, in f64, on points away from kinks.
 
-use neuroom_field::hash::{HashGrid, HashGridConfig};
+use neuroom_field::hash::{HashGrid, HashGridConfig, Strides};
 use neuroom_field::mlp::{Activation, Mlp, MlpConfig};
 use neuroom_field::rng::SplitMix;
 use neuroom_field::{CodeSet, Codes, Group, NeusConfig, NeusField, Outputs, Params, Tape};
@@ -56,11 +56,11 @@ fn hash_encoding_gradients_to_table_and_position() {
     let c = random(&mut rng, u.len() * w, 1.0);
     let loss = |table: &[f64], u: &[[f64; 3]]| {
         let mut out = vec![0.0; u.len() * w];
-        grid.forward(table, u, 3, &mut out, w, None);
+        grid.forward(table, u, 3, &mut out, Strides::rows(w), None);
         out.iter().zip(&c).map(|(a, b)| a * b).sum::<f64>()
     };
     let mut grad = vec![0.0; table.len()];
-    grid.backward_table(&[(&u[..], &c[..])], w, 3, &mut grad);
+    grid.backward_table(&[(&u[..], &c[..])], Strides::rows(w), 3, &mut grad);
     for i in (0..table.len()).step_by(3) {
         let v = table[i];
         table[i] = v + EPS;
@@ -72,11 +72,11 @@ fn hash_encoding_gradients_to_table_and_position() {
     }
     let mut out = vec![0.0; u.len() * w];
     let mut jac = vec![0.0; u.len() * w * 3];
-    grid.forward(&table, &u, 3, &mut out, w, Some(&mut jac));
+    grid.forward(&table, &u, 3, &mut out, Strides::rows(w), Some(&mut jac));
     for p in 0..u.len() {
         for a in 0..3 {
             let analytic: f64 = (0..w)
-                .map(|k| c[p * w + k] * jac[(p * w + k) * 3 + a])
+                .map(|k| c[p * w + k] * jac[(k * u.len() + p) * 3 + a])
                 .sum();
             let mut up = u.clone();
             up[p][a] += EPS;
@@ -103,7 +103,14 @@ fn hash_encoding_masks_levels() {
     let mut rng = SplitMix::new(2);
     let table = random(&mut rng, grid.num_params(), 1.0);
     let mut out = vec![1.0; 8];
-    grid.forward(&table, &[[0.3, 0.4, 0.6]], 2, &mut out, 8, None);
+    grid.forward(
+        &table,
+        &[[0.3, 0.4, 0.6]],
+        2,
+        &mut out,
+        Strides::rows(8),
+        None,
+    );
     assert!(out[..4].iter().all(|v| *v != 0.0) && out[4..].iter().all(|v| *v == 0.0));
 }
 
