@@ -16,16 +16,20 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    Demo(commands::demo::Args),
     Synth(commands::synth::Args),
     Info(commands::info::Args),
+    Train(commands::train::Args),
     Bench(commands::bench::Args),
 }
 
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Demo(args) => commands::demo::run(args),
         Command::Synth(args) => commands::synth::run(args),
         Command::Info(args) => commands::info::run(args),
+        Command::Train(args) => commands::train::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };
     if let Err(e) = result {

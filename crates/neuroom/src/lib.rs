@@ -3,7 +3,9 @@
 //! importing one another.
 
 pub mod bench;
+pub mod demo;
 pub mod inspect;
 pub mod synth;
+pub mod train;
 
 pub use inspect::{RoomReport, inspect_room};

@@ -1,5 +1,7 @@
 //! One module per subcommand: its arguments and how it calls the library.
 
 pub mod bench;
+pub mod demo;
 pub mod info;
 pub mod synth;
+pub mod train;

@@ -1,0 +1,67 @@
+//! `neuroom train ROOM --out MODELS`: the offline stage.
+
+use std::path::PathBuf;
+
+use neuroom::train::{TrainBar, TrainOptions};
+
+/// Learn the neural models of a room (background and every object) from its captures.
+///
+/// Interrupt it any time: running it again resumes from the last checkpoint, and finished models are kept.
+/// Example: `neuroom train rooms/bedroom --out models`
+#[derive(clap::Args)]
+pub struct Args {
+    /// Room folder (holding room.json).
+    room: PathBuf,
+    /// Folder that receives `<room name>/` with one model per object capture and the background.
+    #[arg(long)]
+    out: PathBuf,
+    /// Most optimisation steps per object model.
+    #[arg(long)]
+    object_steps: Option<u64>,
+    /// Most optimisation steps for the background model.
+    #[arg(long)]
+    background_steps: Option<u64>,
+    /// Time budget per object model, seconds.
+    #[arg(long)]
+    object_seconds: Option<f64>,
+    /// Time budget of the background model, seconds.
+    #[arg(long)]
+    background_seconds: Option<f64>,
+    /// Worker threads (0 = all cores); resuming bit-identically needs the same count.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Seed of sampling and initialisation.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let options = TrainOptions {
+        object_steps: args.object_steps,
+        background_steps: args.background_steps,
+        object_seconds: args.object_seconds,
+        background_seconds: args.background_seconds,
+        threads: args.threads,
+        seed: args.seed,
+    };
+    let summary =
+        neuroom::train::train_room(&args.room, &args.out, &options, &TrainBar::default())?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        println!(
+            "models of `{}` in {} ({:.0} s)",
+            summary.manifest.room,
+            summary.dir.display(),
+            summary.seconds
+        );
+        for m in &summary.manifest.models {
+            println!("  {}", neuroom::train::describe_model(m));
+        }
+    }
+    Ok(())
+}

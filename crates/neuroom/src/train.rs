@@ -1,0 +1,85 @@
+//! Training a room's models (the offline stage), with the budgets a user picks on the command line.
+
+use std::path::Path;
+
+pub use neuroom_train::progress::{
+    Bar as TrainBar, Progress as TrainProgress, Quiet as TrainQuiet,
+};
+pub use neuroom_train::{TrainConfig, TrainSummary};
+
+/// Budget overrides on top of [`TrainConfig::default`].
+#[derive(Clone, Debug, Default)]
+pub struct TrainOptions {
+    /// Most steps per object model.
+    pub object_steps: Option<u64>,
+    /// Most steps for the background model.
+    pub background_steps: Option<u64>,
+    /// Wall-clock budget per object model, seconds.
+    pub object_seconds: Option<f64>,
+    /// Wall-clock budget of the background model, seconds.
+    pub background_seconds: Option<f64>,
+    /// Worker threads (0 = all cores).
+    pub threads: usize,
+    /// Seed of sampling and initialisation.
+    pub seed: Option<u64>,
+}
+
+impl TrainOptions {
+    /// The training configuration these options give.
+    pub fn config(&self) -> TrainConfig {
+        let mut c = TrainConfig::default();
+        if let Some(s) = self.object_steps {
+            c.object.steps = s;
+        }
+        if let Some(s) = self.background_steps {
+            c.background.steps = s;
+        }
+        if let Some(t) = self.object_seconds {
+            c.object.time_budget_s = Some(t);
+        }
+        if let Some(t) = self.background_seconds {
+            c.background.time_budget_s = Some(t);
+        }
+        if let Some(seed) = self.seed {
+            c.seed = seed;
+        }
+        c.threads = self.threads;
+        c
+    }
+}
+
+/// Trains (or resumes) every model of the room at `room` into `models/<room name>/`.
+pub fn train_room(
+    room: &Path,
+    models: &Path,
+    options: &TrainOptions,
+    progress: &dyn TrainProgress,
+) -> anyhow::Result<TrainSummary> {
+    Ok(neuroom_train::train_room(
+        room,
+        models,
+        &options.config(),
+        progress,
+    )?)
+}
+
+/// One line describing a trained model and its held-out figures.
+pub fn describe_model(m: &neuroom_train::ModelEntry) -> String {
+    let eval = m
+        .stats
+        .eval
+        .as_ref()
+        .map_or("not evaluated".to_string(), |e| {
+            format!(
+                "held-out PSNR {:.2} dB, median depth error {:.1} mm, coverage {:.0} % ({} views)",
+                e.psnr_db,
+                e.median_depth_error_m * 1000.0,
+                e.coverage * 100.0,
+                e.views
+            )
+        });
+    format!(
+        "{:<14} {} steps in {:.0} s, inv_s {:.0}: {eval}",
+        m.name, m.stats.steps, m.stats.train_seconds, m.stats.inv_s
+    )
+}
