@@ -70,7 +70,7 @@ pub fn bench_panorama(width: u32, quality: Quality, seed: u64) -> Result<BenchRe
     };
     let placed = space
         .arrange(&items, &[], &mut rng)
-        .ok_or_else(|| SynthError::Arrangement("no layout".into()))?;
+        .map_err(SynthError::Arrangement)?;
     let boxes: Vec<YawBox> = placed
         .iter()
         .map(|p| YawBox::of(&p.pose, items[p.index].furniture.size))

@@ -406,9 +406,9 @@ fn sample_arrangement(
         } else {
             Vec::new()
         };
-    let placed = space.arrange(&items, &omit, rng).ok_or_else(|| {
-        SynthError::Arrangement(format!("no layout found for arrangement {index}"))
-    })?;
+    let placed = space
+        .arrange(&items, &omit, rng)
+        .map_err(|e| SynthError::Arrangement(format!("arrangement {index}: {e}")))?;
     let boxes: Vec<YawBox> = placed
         .iter()
         .map(|p| YawBox::of(&p.pose, items[p.index].furniture.size))

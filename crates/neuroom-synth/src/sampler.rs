@@ -107,8 +107,13 @@ pub struct RoomSpace<'a> {
 
 impl RoomSpace<'_> {
     /// Samples poses for all items except those in `omit`, placing big floor pieces first, then
-    /// pictures, then objects on supports. Returns `None` when no valid layout was found.
-    pub fn arrange(&self, items: &[Item], omit: &[usize], rng: &mut Pcg64) -> Option<Vec<Placed>> {
+    /// pictures, then objects on supports. Fails naming the model that could not be placed.
+    pub fn arrange(
+        &self,
+        items: &[Item],
+        omit: &[usize],
+        rng: &mut Pcg64,
+    ) -> Result<Vec<Placed>, String> {
         let mut order: Vec<usize> = (0..items.len()).filter(|i| !omit.contains(i)).collect();
         order.sort_by(|&a, &b| {
             let key = |i: usize| {
@@ -122,19 +127,27 @@ impl RoomSpace<'_> {
             };
             key(a).partial_cmp(&key(b)).expect("finite sizes")
         });
+        let mut stuck = 0;
         'restart: for _ in 0..50 {
             let mut placed: Vec<Placed> = Vec::new();
             for &i in &order {
                 let Some(pose) = (0..TRIES).find_map(|_| self.try_place(items, i, &placed, rng))
                 else {
+                    stuck = i;
                     continue 'restart;
                 };
                 placed.push(Placed { index: i, pose });
             }
             placed.sort_by_key(|p| p.index);
-            return Some(placed);
+            return Ok(placed);
         }
-        None
+        let f = items[stuck].furniture;
+        Err(format!(
+            "no room for `{}` ({}, size {:.2?} m)",
+            f.name,
+            f.source,
+            f.size.to_array()
+        ))
     }
 
     fn try_place(

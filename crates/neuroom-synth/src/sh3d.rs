@@ -203,17 +203,19 @@ fn fits(kind: Kind, e: &Entry) -> bool {
         }
         Kind::CoffeeTable => has("coffee table") || has("low table"),
         Kind::Cabinet => {
-            has("cabinet")
-                || has("dresser")
-                || has("sideboard")
-                || has("chest of drawers")
-                || has("cupboard")
+            (has("cabinet") || has("dresser") || has("sideboard") || has("chest of drawers"))
+                && !has("upper")
+                && !has("corner")
+                && !has("sink")
+                && (55.0..110.0).contains(&height)
         }
-        Kind::TableLamp => has("lamp") && height < 80.0,
+        Kind::TableLamp => has("lamp") && height < 70.0,
         Kind::FloorLamp => has("lamp") && height > 120.0,
         Kind::Picture => has("picture") || has("painting"),
-        Kind::Plant => has("plant") && height < 80.0,
-        Kind::Vase => has("vase"),
+        Kind::Plant => has("plant") && height < 60.0 && e.size_cm[0].max(e.size_cm[1]) < 40.0,
+        Kind::Vase => {
+            has("vase") && !has("lamp") && height < 45.0 && e.size_cm[0].max(e.size_cm[1]) < 30.0
+        }
     }
 }
 

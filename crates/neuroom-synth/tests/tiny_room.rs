@@ -371,7 +371,7 @@ fn every_preset_arranges_for_many_seeds() {
             let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
             let placed = space
                 .arrange(&items, &[], &mut rng)
-                .unwrap_or_else(|| panic!("{name} seed {seed}: no layout"));
+                .unwrap_or_else(|e| panic!("{name} seed {seed}: {e}"));
             let boxes: Vec<YawBox> = placed
                 .iter()
                 .map(|p| YawBox::of(&p.pose, items[p.index].furniture.size))
