@@ -1,6 +1,31 @@
-//! Rendering of signed-distance + radiance fields. So far: per-ray NeuS volume rendering, forward and
-//! backward ([`volume`]), and where to put samples along a ray ([`sampling`]). Sphere tracing, multi-object
-//! compositing with poses and image rendering for both camera kinds come next on top of these.
+//! Rendering of signed-distance + radiance fields: a background and posed objects composited together
+//! along world rays, forward and backward, as "Neural Rendering in a Room" needs for its holistic fit.
+//!
+//! - [`scene`]: the background, the models (fields shared by identical objects) and the posed instances
+//!   with their codes and tone adjusters.
+//! - [`renderer::Renderer`]: plan (culling [`cull`], sphere tracing [`trace`], sample placement, no
+//!   gradient) → forward (field queries, [`composite`] of all fields by distance) → backward (to poses,
+//!   tone adjusters and the fields' parameters, codes included).
+//! - [`config`]: safe-region vs classical sampling and the per-pass cost ([`config::RenderStats`]).
+//! - [`image`]: whole images (pinhole or panorama) with depth and instance ids.
+//! - [`bench`]: the paper's Table 3 — queries, memory and time per iteration, safe region vs classical.
+//! - [`volume`], [`sampling`]: single-field NeuS volume rendering and sample placement, also used by the
+//!   trainer.
 
+pub mod bench;
+pub mod composite;
+pub mod config;
+pub mod cull;
+pub mod image;
+pub mod plan;
+pub mod renderer;
 pub mod sampling;
+pub mod scene;
+pub mod trace;
 pub mod volume;
+
+pub use config::{RenderConfig, RenderStats, Sampling};
+pub use image::render_image;
+pub use renderer::{ObjectGrad, Renderer, SceneGrad};
+pub use scene::{Background, InstanceCodes, Model, Scene, SceneObject, Tone};
+pub use trace::TraceConfig;

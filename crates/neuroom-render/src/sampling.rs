@@ -61,11 +61,24 @@ pub fn importance(
     rng: &mut impl FnMut() -> f32,
     out: &mut Vec<f32>,
 ) {
+    let mut cdf = Vec::with_capacity(weights.len() + 1);
+    importance_with(t, weights, n, rng, &mut cdf, out);
+}
+
+/// [`importance`] with a caller's buffer for the CDF, so hot loops allocate nothing once it has grown.
+pub fn importance_with(
+    t: &[f32],
+    weights: &[f32],
+    n: usize,
+    rng: &mut impl FnMut() -> f32,
+    cdf: &mut Vec<f32>,
+    out: &mut Vec<f32>,
+) {
     out.clear();
     if t.len() < 2 {
         return;
     }
-    let mut cdf = Vec::with_capacity(weights.len() + 1);
+    cdf.clear();
     cdf.push(0.0f32);
     for w in weights {
         cdf.push(cdf.last().copied().unwrap_or(0.0) + w.max(0.0) + 1e-5);

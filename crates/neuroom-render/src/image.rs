@@ -1,0 +1,81 @@
+//! Whole images of a scene for either camera kind: colour, depth (pinhole: z-depth; panorama: ray
+//! distance, as FORMAT.md stores them) and instance ids, rendered in tiles of rows in parallel.
+
+use crate::config::RenderConfig;
+use crate::renderer::Renderer;
+use crate::scene::Scene;
+use glam::DVec2;
+use neuroom_core::Ray;
+use neuroom_core::camera::CameraModel;
+use neuroom_core::image::{DepthImage, Image, MaskImage, RgbImage};
+use neuroom_core::pose::Pose;
+use neuroom_field::Field;
+use rayon::prelude::*;
+
+/// Rows per rayon task.
+const TILE_ROWS: usize = 4;
+
+/// Opacity above which a pixel has a depth.
+const DEPTH_OPACITY: f32 = 0.5;
+
+/// Renders `scene` seen by `camera` at `camera_to_world`: colour (composited, clamped to `[0, 1]`, black
+/// where nothing is hit), depth in the camera kind's stored convention (0 where the opacity is below ½),
+/// and the instance id of the dominant field per pixel (0: background).
+pub fn render_image<F: Field, C: CameraModel + Sync>(
+    scene: &Scene<F>,
+    camera: &C,
+    camera_to_world: &Pose,
+    config: &RenderConfig,
+) -> (RgbImage, DepthImage, MaskImage) {
+    let (w, h) = (camera.width(), camera.height());
+    let mut rgb = Image::filled(w, h, [0.0f32; 3]);
+    let mut depth = Image::filled(w, h, 0.0f32);
+    let mut mask = Image::filled(w, h, 0u16);
+    let tile = w as usize * TILE_ROWS;
+    rgb.data
+        .par_chunks_mut(tile)
+        .zip(depth.data.par_chunks_mut(tile))
+        .zip(mask.data.par_chunks_mut(tile))
+        .enumerate()
+        .for_each_init(
+            || (Renderer::new(*config), Vec::new(), Vec::new()),
+            |(renderer, rays, dirs), (k, ((c, d), m))| {
+                tile_rays(camera, camera_to_world, k * TILE_ROWS, c.len(), rays, dirs);
+                renderer.render(scene, rays);
+                let ids = renderer.instances();
+                for (i, out) in renderer.outputs().iter().enumerate() {
+                    c[i] = out.rgb.map(|v| v.clamp(0.0, 1.0));
+                    m[i] = ids[i];
+                    if out.opacity > DEPTH_OPACITY {
+                        let point = dirs[i] * (out.depth / out.opacity) as f64;
+                        d[i] = camera.project(point).map_or(0.0, |(_, z)| z as f32);
+                    }
+                }
+            },
+        );
+    (rgb, depth, mask)
+}
+
+/// World rays and camera-frame directions of `count` pixels from row `first_row` on, row by row.
+fn tile_rays<C: CameraModel>(
+    camera: &C,
+    camera_to_world: &Pose,
+    first_row: usize,
+    count: usize,
+    rays: &mut Vec<Ray>,
+    dirs: &mut Vec<glam::DVec3>,
+) {
+    let w = camera.width() as usize;
+    rays.clear();
+    dirs.clear();
+    let origin = camera_to_world.translation.as_vec3();
+    for i in 0..count {
+        let (u, v) = (i % w, first_row + i / w);
+        let dir = camera.direction(DVec2::new(u as f64 + 0.5, v as f64 + 0.5));
+        dirs.push(dir);
+        rays.push(Ray::new(
+            origin,
+            camera_to_world.transform_vector(dir).as_vec3(),
+        ));
+    }
+}
