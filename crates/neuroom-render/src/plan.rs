@@ -186,7 +186,7 @@ impl<F: Field> Renderer<F> {
                 let ray = &rays[r as usize];
                 for (k, (t, p)) in ct.iter_mut().zip(cp.iter_mut()).enumerate() {
                     *t = a + (k as f32 + rng()) * step;
-                    *p = layer.to_local(ray.at(*t));
+                    *p = layer.world_to_layer(ray.at(*t));
                 }
             });
         model.field.sdf(&s.coarse_points, &mut s.coarse_sdf);

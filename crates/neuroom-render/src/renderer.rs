@@ -199,7 +199,7 @@ impl<F: Field> Renderer<F> {
                 let ray = &rays[r as usize];
                 let dir = rt * ray.direction;
                 for ((p, d), t) in p.iter_mut().zip(d.iter_mut()).zip(t) {
-                    *p = layer.to_local(ray.at(*t));
+                    *p = layer.world_to_layer(ray.at(*t));
                     *d = dir;
                 }
             });

@@ -202,7 +202,7 @@ pub(crate) struct Layer {
 impl Layer {
     /// A world point in the layer frame.
     #[inline]
-    pub fn to_local(&self, x: Vec3) -> Vec3 {
+    pub fn world_to_layer(&self, x: Vec3) -> Vec3 {
         self.rotation.transpose() * (x - self.translation)
     }
 }

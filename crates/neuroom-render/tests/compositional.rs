@@ -488,7 +488,7 @@ fn photometric_descent_moves_a_displaced_object_back() {
     };
     let before = pose_error(&scene.objects[1]);
     let mut adam = [Adam::default(); 9];
-    let mut grads = vec![Params::default(); 3];
+    let mut model_grads = vec![Params::default(); 3];
     for _ in 0..100 {
         let d_out: Vec<RayOutput<f32>> = renderer
             .render(&scene, &rays)
@@ -500,13 +500,12 @@ fn photometric_descent_moves_a_displaced_object_back() {
                 opacity: 0.0,
             })
             .collect();
-        let g = renderer.backward(&scene, &d_out, &mut grads).objects[1];
+        let g = renderer.backward(&scene, &d_out, &mut model_grads).objects[1];
         let o = &mut scene.objects[1];
-        for a in 0..3 {
-            o.translation[a] -= adam[a].step(g.translation[a], 4e-3);
-        }
-        for c in 0..6 {
-            o.rotation6d[c] -= adam[3 + c].step(g.rotation6d[c], 4e-3);
+        let params = o.translation.as_mut().iter_mut().chain(&mut o.rotation6d);
+        let grads = g.translation.to_array().into_iter().chain(g.rotation6d);
+        for ((p, g), adam) in params.zip(grads).zip(&mut adam) {
+            *p -= adam.step(g, 4e-3);
         }
     }
     let after = pose_error(&scene.objects[1]);
