@@ -1,6 +1,6 @@
 //! `cargo bench -p neuroom-field --bench field`: throughput of the default object and room fields on
 //! 65 536 and 262 144 points with 2 threads (override with `NEUROOM_BENCH_N=a,b` and
-//! `NEUROOM_BENCH_THREADS`; `NEUROOM_BENCH_CONFIGS=object` measures one configuration). Prints a text line
+//! `NEUROOM_BENCH_THREADS`; `NEUROOM_BENCH_CONFIGS=object` measures one configuration, `NEUROOM_BENCH_REPS` sets the repetitions). Prints a text line
 //! and a JSON line per measurement.
 
 use neuroom_field::NeusConfig;
@@ -19,6 +19,10 @@ fn main() {
         ("object", NeusConfig::object([0.5, 0.5, 0.5])),
         ("room", NeusConfig::room([-2.0, -2.0, 0.0], [2.0, 2.0, 2.6])),
     ];
+    let reps = std::env::var("NEUROOM_BENCH_REPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(3);
     let only = std::env::var("NEUROOM_BENCH_CONFIGS").ok();
     let wanted = |label: &str| {
         only.as_deref()
@@ -26,7 +30,7 @@ fn main() {
     };
     for (label, config) in configs.iter().filter(|(l, _)| wanted(l)) {
         for &n in &ns {
-            let r = field_throughput(label, config, n, threads, 3);
+            let r = field_throughput(label, config, n, threads, reps);
             println!(
                 "{label:6} n={n:7} T=2^{} finest={}: fwd {:.2} M points/s, fwd+bwd {:.2} M points/s, \
                  {:.0} FLOPs/point, {:.1} GFLOP/s = {:.1} % of {:.0} GFLOP/s peak \

@@ -19,6 +19,7 @@ pub mod bench;
 pub mod checkpoint;
 pub mod field;
 pub mod hash;
+pub mod kernel;
 pub mod mlp;
 pub mod neus;
 pub mod params;

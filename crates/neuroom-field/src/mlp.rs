@@ -1,8 +1,15 @@
-//! Tiny fully connected networks, batch-major, forward and backward by hand; products go through `gemm`.
+//! Tiny fully connected networks, batch-major, forward and backward by hand.
 //!
 //! Parameters of a layer: weights `W` as `[in][out]` row-major, then bias `[out]`, so a batch
 //! `Y = act(X · W + b)` reads rows of `X` and `W` contiguously.
+//!
+//! Products go through [`crate::kernel::matmul`], a register-blocked kernel written for these shapes
+//! (a few hundred rows, widths of 3 to 66): a general BLAS spends more time packing and dispatching than
+//! multiplying here. Activations and deltas are stored with rows padded to [`crate::kernel::LANES`] values so that every
+//! right-hand operand can be read in whole vectors; the weights are copied into the same padded shape
+//! (and transposed, for the input gradient) once per call.
 
+use crate::kernel::{Init, matmul, padded};
 use crate::real::Real;
 use crate::rng::SplitMix;
 use serde::{Deserialize, Serialize};
@@ -80,13 +87,24 @@ pub struct Mlp {
     num_params: usize,
 }
 
-/// Reusable buffers of one chunk: the output of every layer and two gradient buffers.
+/// Reusable buffers of one chunk: the output of every layer, two gradient buffers and the padded copy of
+/// one layer's weights. Rows of activations and deltas are padded (see the module documentation).
 #[derive(Clone, Debug, Default)]
 pub struct MlpWorkspace<T> {
-    /// `acts[i]`: output of layer `i` (after its activation), `n × width`. The last is the network output.
-    pub acts: Vec<Vec<T>>,
+    acts: Vec<Vec<T>>,
+    widths: Vec<usize>,
     delta: Vec<T>,
     delta_prev: Vec<T>,
+    packed: Vec<T>,
+}
+
+impl<T: Real> MlpWorkspace<T> {
+    /// The network output of the last forward pass and its row stride: value `j` of row `p` is at
+    /// `p · stride + j`.
+    pub fn output(&self) -> (&[T], usize) {
+        let last = self.acts.len() - 1;
+        (&self.acts[last], padded(self.widths[last]))
+    }
 }
 
 impl Mlp {
@@ -157,37 +175,59 @@ impl Mlp {
 
     /// Allocates a workspace for up to `rows` points.
     pub fn workspace<T: Real>(&self, rows: usize) -> MlpWorkspace<T> {
-        let max = *self.dims.iter().max().unwrap_or(&0);
+        let max = padded(*self.dims.iter().max().unwrap_or(&0));
+        let packed = self
+            .dims
+            .windows(2)
+            .map(|w| (w[0] + 1) * padded(w[1]).max(padded(w[0])))
+            .max()
+            .unwrap_or(0);
         MlpWorkspace {
             acts: self.dims[1..]
                 .iter()
-                .map(|d| vec![T::ZERO; rows * d])
+                .map(|d| vec![T::ZERO; rows * padded(*d)])
                 .collect(),
+            widths: self.dims[1..].to_vec(),
             delta: vec![T::ZERO; rows * max],
             delta_prev: vec![T::ZERO; rows * max],
+            packed: vec![T::ZERO; packed],
         }
     }
 
-    /// Forward pass of `n` rows of `input` (`n × input`, contiguous); outputs land in `ws.acts`.
+    /// Forward pass of `n` rows of `input` (`n × input`, contiguous); read the result with
+    /// [`MlpWorkspace::output`].
     pub fn forward<T: Real>(&self, params: &[T], input: &[T], n: usize, ws: &mut MlpWorkspace<T>) {
+        self.forward_strided(params, input, self.config.input, n, ws);
+    }
+
+    /// [`Mlp::forward`] with input rows `stride` values apart.
+    pub fn forward_strided<T: Real>(
+        &self,
+        params: &[T],
+        input: &[T],
+        stride: usize,
+        n: usize,
+        ws: &mut MlpWorkspace<T>,
+    ) {
         for l in 0..self.layers() {
             let (i, o) = (self.dims[l], self.dims[l + 1]);
-            let (w, b) = self.weights(params, l);
+            let op = padded(o);
+            pack_weights(&params[self.offsets[l]..], i, o, &mut ws.packed);
+            let (w, b) = ws.packed.split_at(i * op);
             let (before, after) = ws.acts.split_at_mut(l);
-            let x = if l == 0 {
-                &input[..n * i]
+            let (x, xs) = if l == 0 {
+                (input, stride)
             } else {
-                &before[l - 1][..n * i]
+                (&before[l - 1][..], padded(i))
             };
-            let y = &mut after[0][..n * o];
-            for row in y.chunks_exact_mut(o) {
-                row.copy_from_slice(b);
-            }
-            matmul(n, o, i, y, o, true, x, i, 1, w, o, 1);
+            let y = &mut after[0][..n * op];
+            matmul(n, o, i, x, xs, 1, w, op, y, op, Init::Bias(&b[..op]));
             let act = self.activation(l);
             if act != Activation::None {
-                for v in y.iter_mut() {
-                    *v = act.apply(*v);
+                for row in y.chunks_exact_mut(op) {
+                    for v in &mut row[..o] {
+                        *v = act.apply(*v);
+                    }
                 }
             }
         }
@@ -205,131 +245,107 @@ impl Mlp {
         n: usize,
         ws: &mut MlpWorkspace<T>,
         d_out: &[T],
+        grads: Option<&mut [T]>,
+        d_input: Option<(&mut [T], usize)>,
+    ) {
+        let (out, stride) = (self.config.output, self.config.input);
+        self.backward_strided(params, (input, stride), n, ws, (d_out, out), grads, d_input);
+    }
+
+    /// [`Mlp::backward`] with strided input rows and output-gradient rows: `(values, row stride)`.
+    #[allow(clippy::too_many_arguments)] // as `backward`
+    pub fn backward_strided<T: Real>(
+        &self,
+        params: &[T],
+        input: (&[T], usize),
+        n: usize,
+        ws: &mut MlpWorkspace<T>,
+        d_out: (&[T], usize),
         mut grads: Option<&mut [T]>,
         mut d_input: Option<(&mut [T], usize)>,
     ) {
         let last = self.layers() - 1;
-        let out_w = self.dims[last + 1];
+        let (out_w, dp) = (self.dims[last + 1], padded(self.dims[last + 1]));
         let act = self.activation(last);
-        for ((d, g), y) in ws.delta[..n * out_w]
-            .iter_mut()
-            .zip(&d_out[..n * out_w])
-            .zip(&ws.acts[last])
-        {
-            *d = *g * act.derivative(*y);
+        let y = &ws.acts[last];
+        for p in 0..n {
+            for j in 0..out_w {
+                ws.delta[p * dp + j] = d_out.0[p * d_out.1 + j] * act.derivative(y[p * dp + j]);
+            }
         }
         for l in (0..=last).rev() {
             let (i, o) = (self.dims[l], self.dims[l + 1]);
-            let x = if l == 0 {
-                &input[..n * i]
+            let op = padded(o);
+            let (x, xs) = if l == 0 {
+                input
             } else {
-                &ws.acts[l - 1][..n * i]
+                (&ws.acts[l - 1][..], padded(i))
             };
-            let delta = &ws.delta[..n * o];
+            let delta = &ws.delta[..n * op];
             let (wo, bo) = (self.offsets[l], self.offsets[l] + i * o);
             if let Some(grads) = grads.as_deref_mut() {
                 let (gw, gb) = grads[wo..bo + o].split_at_mut(i * o);
                 // dW += Xᵀ · Δ
-                matmul(i, o, n, gw, o, true, x, 1, i, delta, o, 1);
-                for row in delta.chunks_exact(o) {
+                matmul(i, o, n, x, 1, xs, delta, op, gw, o, Init::Accumulate);
+                for row in delta.chunks_exact(op) {
                     for (b, d) in gb.iter_mut().zip(row) {
                         *b += *d;
                     }
                 }
             }
-            let w = &params[wo..bo];
             if l > 0 {
                 // Δ_prev = (Δ · Wᵀ) ⊙ act'(x)
-                let dp = &mut ws.delta_prev[..n * i];
-                matmul(n, i, o, dp, i, false, delta, o, 1, w, 1, o);
+                let ip = padded(i);
+                pack_transposed(&params[wo..bo], i, o, i, &mut ws.packed);
+                let dprev = &mut ws.delta_prev[..n * ip];
+                matmul(n, i, o, delta, op, 1, &ws.packed, ip, dprev, ip, Init::Zero);
                 let act = self.activation(l - 1);
-                for (d, y) in dp.iter_mut().zip(x) {
-                    *d *= act.derivative(*y);
+                for (drow, xrow) in dprev.chunks_exact_mut(ip).zip(x.chunks_exact(ip)) {
+                    for (d, y) in drow[..i].iter_mut().zip(&xrow[..i]) {
+                        *d *= act.derivative(*y);
+                    }
                 }
                 std::mem::swap(&mut ws.delta, &mut ws.delta_prev);
             } else if let Some((buf, cols)) = d_input.take() {
+                pack_transposed(&params[wo..bo], i, o, cols, &mut ws.packed);
+                let cp = padded(cols);
                 matmul(
                     n,
                     cols,
                     o,
-                    &mut buf[..n * cols],
-                    cols,
-                    false,
                     delta,
-                    o,
+                    op,
                     1,
-                    w,
-                    1,
-                    o,
+                    &ws.packed,
+                    cp,
+                    buf,
+                    cols,
+                    Init::Zero,
                 );
             }
         }
     }
+}
 
-    fn weights<'a, T>(&self, params: &'a [T], l: usize) -> (&'a [T], &'a [T]) {
-        let (i, o) = (self.dims[l], self.dims[l + 1]);
-        let off = self.offsets[l];
-        (
-            &params[off..off + i * o],
-            &params[off + i * o..off + i * o + o],
-        )
+/// Copies a layer's `i × o` weights and its bias (the `o` values after them) into `dst` as `i + 1` rows
+/// of `padded(o)` values, zero-filled beyond `o`.
+fn pack_weights<T: Real>(params: &[T], i: usize, o: usize, dst: &mut [T]) {
+    let op = padded(o);
+    for (r, row) in dst[..(i + 1) * op].chunks_exact_mut(op).enumerate() {
+        row[..o].copy_from_slice(&params[r * o..(r + 1) * o]);
+        row[o..].fill(T::ZERO);
     }
 }
 
-/// `dst (m×n) [+]= lhs (m×k) · rhs (k×n)` with explicit row/column strides (`*_rs`, `*_cs`), via `gemm`.
-/// `dst` is row-major with row stride `dst_rs`; `accumulate` keeps what `dst` holds.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn matmul<T: Real>(
-    m: usize,
-    n: usize,
-    k: usize,
-    dst: &mut [T],
-    dst_rs: usize,
-    accumulate: bool,
-    lhs: &[T],
-    lhs_rs: usize,
-    lhs_cs: usize,
-    rhs: &[T],
-    rhs_rs: usize,
-    rhs_cs: usize,
-) {
-    if m == 0 || n == 0 {
-        return;
-    }
-    assert!(
-        dst.len() >= (m - 1) * dst_rs + n,
-        "matmul: destination too small"
-    );
-    assert!(
-        k == 0 || lhs.len() > (m - 1) * lhs_rs + (k - 1) * lhs_cs,
-        "matmul: lhs too small"
-    );
-    assert!(
-        k == 0 || rhs.len() > (k - 1) * rhs_rs + (n - 1) * rhs_cs,
-        "matmul: rhs too small"
-    );
-    // SAFETY: the asserts above keep every index gemm touches inside the three slices.
-    unsafe {
-        gemm::gemm(
-            m,
-            n,
-            k,
-            dst.as_mut_ptr(),
-            1,
-            dst_rs as isize,
-            accumulate,
-            lhs.as_ptr(),
-            lhs_cs as isize,
-            lhs_rs as isize,
-            rhs.as_ptr(),
-            rhs_cs as isize,
-            rhs_rs as isize,
-            T::ONE,
-            T::ONE,
-            false,
-            false,
-            false,
-            gemm::Parallelism::None,
-        );
+/// Copies the first `cols` rows of the `i × o` weights `w`, transposed, into `dst` as `o` rows of
+/// `padded(cols)` values, zero-filled beyond `cols`: the right-hand operand of `Δ · Wᵀ`.
+fn pack_transposed<T: Real>(w: &[T], i: usize, o: usize, cols: usize, dst: &mut [T]) {
+    debug_assert!(cols <= i);
+    let cp = padded(cols);
+    for (j, row) in dst[..o * cp].chunks_exact_mut(cp).enumerate() {
+        for (c, v) in row[..cols].iter_mut().enumerate() {
+            *v = w[c * o + j];
+        }
+        row[cols..].fill(T::ZERO);
     }
 }

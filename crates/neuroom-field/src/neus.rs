@@ -243,6 +243,7 @@ pub struct Workspace<T> {
     d_sdf_in: Vec<T>,
     d_enc: Vec<T>,
     d_color_in: Vec<T>,
+    rgb: Vec<T>,
 }
 
 impl<T: Real> Workspace<T> {
@@ -268,11 +269,7 @@ impl<T: Real> Workspace<T> {
 
     /// RGB rows (`n × 3`) of the last [`Outputs::Full`] forward pass.
     pub fn rgb(&self) -> &[T] {
-        &self
-            .color_ws
-            .acts
-            .last()
-            .expect("colour network has layers")[..self.n * 3]
+        &self.rgb[..self.n * 3]
     }
 }
 
@@ -422,6 +419,7 @@ impl<T: Real> NeusField<T> {
             d_sdf_in: vec![T::ZERO; CHUNK * si],
             d_enc: vec![T::ZERO; CHUNK * self.config.hash.output_dim()],
             d_color_in: vec![T::ZERO; CHUNK * ci],
+            rgb: vec![T::ZERO; CHUNK * 3],
         }
     }
 
@@ -531,11 +529,10 @@ impl<T: Real> NeusField<T> {
             n,
             &mut ws.sdf_ws,
         );
-        let so = 1 + self.config.geometry_features;
-        let out = ws.sdf_ws.acts.last().expect("SDF network has layers");
+        let (out, os) = ws.sdf_ws.output();
         for (p, x) in points.iter().enumerate() {
             let (b, gb) = self.base(x);
-            ws.sdf[p] = out[p * so] + b;
+            ws.sdf[p] = out[p * os] + b;
             ws.base_grad[p] = gb;
         }
         if outputs != Outputs::Sdf {
@@ -598,14 +595,14 @@ impl<T: Real> NeusField<T> {
         let (g, cd) = (self.config.geometry_features, self.config.code_dim);
         let ci = self.color_mlp.config().input;
         let so = 1 + g;
-        let feat = ws.sdf_ws.acts.last().expect("SDF network has layers");
+        let (feat, fs) = ws.sdf_ws.output();
         let (app, light) = (
             self.params.get(Group::Appearance),
             self.params.get(Group::Light),
         );
         for p in 0..n {
             let row = &mut ws.color_in[p * ci..(p + 1) * ci];
-            row[..g].copy_from_slice(&feat[p * so + 1..(p + 1) * so]);
+            row[..g].copy_from_slice(&feat[p * fs + 1..p * fs + so]);
             let (a, l) = (codes.appearance.get(p), codes.light.get(p));
             row[g..g + cd].copy_from_slice(&app[a * cd..(a + 1) * cd]);
             row[g + cd..g + 2 * cd].copy_from_slice(&light[l * cd..(l + 1) * cd]);
@@ -624,6 +621,10 @@ impl<T: Real> NeusField<T> {
             n,
             &mut ws.color_ws,
         );
+        let (rgb, rs) = ws.color_ws.output();
+        for (p, dst) in ws.rgb[..n * 3].chunks_exact_mut(3).enumerate() {
+            dst.copy_from_slice(&rgb[p * rs..p * rs + 3]);
+        }
     }
 
     /// Backward pass of the chunk last run through [`NeusField::forward_chunk`]. `d_sdf` (`n`) and `d_rgb`

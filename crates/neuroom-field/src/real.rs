@@ -54,6 +54,8 @@ pub trait Real:
     fn to_u32(self) -> u32;
     /// Conversion from a grid coordinate (exact below 2^24).
     fn from_u32(x: u32) -> Self;
+    /// The slice as `f32`, when `Self` is `f32` (lets kernels take an `f32`-only fast path safely).
+    fn as_f32(s: &[Self]) -> Option<&[f32]>;
     /// Logistic sigmoid `1 / (1 + e^-x)`.
     fn sigmoid(self) -> Self {
         Self::ONE / (Self::ONE + (-self).exp())
@@ -61,7 +63,7 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty) => {
+    ($t:ty, $as_f32:expr) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -72,6 +74,10 @@ macro_rules! impl_real {
             #[inline(always)]
             fn to_f64(self) -> f64 {
                 self as f64
+            }
+            #[inline(always)]
+            fn as_f32(s: &[Self]) -> Option<&[f32]> {
+                $as_f32(s)
             }
             #[inline(always)]
             fn to_u32(self) -> u32 {
@@ -101,5 +107,5 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(f32);
-impl_real!(f64);
+impl_real!(f32, Some);
+impl_real!(f64, |_| None);

@@ -134,10 +134,9 @@ fn check_mlp(hidden_activation: Activation, output_activation: Activation) {
     let mut ws = mlp.workspace(n);
     let loss = |params: &[f64], input: &[f64], ws: &mut neuroom_field::mlp::MlpWorkspace<f64>| {
         mlp.forward(params, input, n, ws);
-        ws.acts.last().unwrap()[..n * 4]
-            .iter()
-            .zip(&c)
-            .map(|(a, b)| a * b)
+        let (out, stride) = ws.output();
+        (0..n * 4)
+            .map(|i| out[(i / 4) * stride + i % 4] * c[i])
             .sum::<f64>()
     };
     loss(&params, &input, &mut ws);
