@@ -62,3 +62,33 @@ pub fn describe_field(r: &BenchReport) -> String {
         r.peak_gflops
     )
 }
+
+/// Ray-traced samples per second of the synthetic-room renderer on one furnished `bedroom` panorama of
+/// `width × width/2` pixels, with the full-room rendering quality.
+pub fn synth(width: u32, seed: u64) -> anyhow::Result<neuroom_synth::BenchReport> {
+    anyhow::ensure!(
+        width >= 16 && width % 2 == 0,
+        "--width must be an even number of at least 16"
+    );
+    let quality = neuroom_synth::Preset::named("bedroom")
+        .expect("built-in preset")
+        .panoramas
+        .quality;
+    Ok(neuroom_synth::bench_panorama(width, quality, seed)?)
+}
+
+/// One line of text for a synthetic-renderer measurement.
+pub fn describe_synth(r: &neuroom_synth::BenchReport) -> String {
+    format!(
+        "synth panorama {}×{} ({} triangles, {} spp, {} AO rays, {} threads): {:.0} samples/s, {:.0} rays/s, {:.2} s",
+        r.width,
+        r.width / 2,
+        r.triangles,
+        r.spp,
+        r.ao_rays,
+        r.threads,
+        r.samples_per_second,
+        r.rays_per_second,
+        r.seconds
+    )
+}

@@ -418,14 +418,13 @@ mod tests {
             return;
         }
         let dir = tempfile::tempdir().unwrap();
+        std::os::unix::fs::symlink(root.join("captures"), dir.path().join("captures")).unwrap();
         let room_json = std::fs::read_to_string(root.join("room.json")).unwrap();
-        // Keep only the cabinet: the mixer capture's masks then hold an id room.json lacks.
+        // Keep only the stool, drawn from the mixer's capture: its masks then hold an id room.json lacks.
         let mut value: serde_json::Value = serde_json::from_str(&room_json).unwrap();
         let objects = value["objects"].as_array_mut().unwrap();
         objects.retain(|o| o["name"] == "stool");
-        objects[0]["capture"] = serde_json::json!(root.join("captures/mixer").to_string_lossy());
-        value["background"]["capture"] =
-            serde_json::json!(root.join("captures/background").to_string_lossy());
+        objects[0]["capture"] = serde_json::json!("captures/mixer");
         std::fs::write(dir.path().join("room.json"), value.to_string()).unwrap();
         let err = inspect_room(dir.path()).unwrap_err().to_string();
         assert!(

@@ -18,6 +18,23 @@ enum Which {
     /// Without flags: the default object and room configurations on 65 536 and 262 144 points.
     /// Example: `neuroom bench field --log2-table 16 --finest 512 --n 65536 --json`
     Field(FieldArgs),
+    /// Ray-traced samples per second of the synthetic-room renderer on a furnished panorama.
+    ///
+    /// Example: `neuroom bench synth --width 1024 --json`
+    Synth(SynthArgs),
+}
+
+#[derive(clap::Args)]
+struct SynthArgs {
+    /// Print one JSON object after the text line.
+    #[arg(long)]
+    json: bool,
+    /// Panorama width in pixels (height is half).
+    #[arg(long, default_value_t = 1024)]
+    width: u32,
+    /// Seed of the room and its arrangement.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
 }
 
 #[derive(clap::Args)]
@@ -54,6 +71,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 if a.json {
                     println!("{}", serde_json::to_string(&report)?);
                 }
+            }
+        }
+        Which::Synth(a) => {
+            let report = bench::synth(a.width, a.seed)?;
+            println!("{}", bench::describe_synth(&report));
+            if a.json {
+                println!("{}", serde_json::to_string(&report)?);
             }
         }
     }
