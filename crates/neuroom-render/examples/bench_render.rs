@@ -25,7 +25,7 @@ fn main() {
     );
     for r in &report.rows {
         println!(
-            "{:<12} {:>6} {:>8} {:>10} {:>10} {:>10} {:>11} {:>10.2} {:>9.1}",
+            "{:<12} {:>6} {:>8} {:>10} {:>10} {:>10} {:>11} {:>10.2} {:>9.1} {:>8.1} {:>8.1} {:>8.1}",
             r.sampling,
             r.rays,
             r.objects,
@@ -34,7 +34,10 @@ fn main() {
             r.full_queries,
             r.queries,
             r.buffer_bytes as f64 / (1 << 20) as f64,
-            r.ms_per_iteration
+            r.ms_per_iteration,
+            r.ms_plan,
+            r.ms_forward,
+            r.ms_backward
         );
     }
     println!(

@@ -2,7 +2,8 @@
 //! of rays through the background and `K` objects), the field queries, the renderer's buffer memory and
 //! the time, for safe-region and classical sampling. Fields are untrained default [`NeusField`]s, so a
 //! query costs what it costs in a real fit; their geometric initialisation (spheres in the objects' boxes,
-//! an inside-out sphere for the room) gives sphere tracing real surfaces to find.
+//! an inside-out sphere for the room, shrunk to fit inside the room's box as trained walls do) gives
+//! sphere tracing real surfaces to find.
 
 use crate::config::{RenderConfig, Sampling};
 use crate::renderer::Renderer;
@@ -60,6 +61,12 @@ pub struct RenderBenchRow {
     pub buffer_bytes: u64,
     /// Median milliseconds of plan + forward + backward.
     pub ms_per_iteration: f64,
+    /// Median milliseconds of the plan (culling, sphere tracing, sample placement).
+    pub ms_plan: f64,
+    /// Median milliseconds of the forward pass (full field queries, compositing).
+    pub ms_forward: f64,
+    /// Median milliseconds of the backward pass (compositing, fields, poses).
+    pub ms_backward: f64,
 }
 
 /// The measurements, one row per (sampling, objects, rays).
@@ -133,17 +140,29 @@ fn bench_row(
         };
         rays.len()
     ];
-    let mut times = Vec::with_capacity(iterations);
+    let mut times: [Vec<f64>; 4] = Default::default();
     for it in 0..=iterations {
         renderer.config_mut().seed = it as u64;
         let start = Instant::now();
-        renderer.render(scene, rays);
+        renderer.plan(scene, rays);
+        let planned = Instant::now();
+        renderer.forward(scene);
+        let forward = Instant::now();
         renderer.backward(scene, &d_out, grads);
+        let end = Instant::now();
         if it > 0 {
-            times.push(start.elapsed().as_secs_f64() * 1e3);
+            let spans = [
+                (start, end),
+                (start, planned),
+                (planned, forward),
+                (forward, end),
+            ];
+            for (t, (a, b)) in times.iter_mut().zip(spans) {
+                t.push((b - a).as_secs_f64() * 1e3);
+            }
         }
     }
-    times.sort_by(f64::total_cmp);
+    let [total, plan, fwd, bwd] = times.map(median);
     let stats = renderer.stats();
     RenderBenchRow {
         sampling: String::new(),
@@ -154,17 +173,25 @@ fn bench_row(
         full_queries: stats.full_queries,
         queries: stats.queries(),
         buffer_bytes: stats.buffer_bytes,
-        ms_per_iteration: times.get(times.len() / 2).copied().unwrap_or(0.0),
+        ms_per_iteration: total,
+        ms_plan: plan,
+        ms_forward: fwd,
+        ms_backward: bwd,
     }
+}
+
+/// The median (0 for no values).
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// The room and `k` objects on a ring around the camera, each its own default NeuS model.
 fn bench_scene(k: usize) -> Scene<NeusField> {
     let (lo, hi) = ROOM;
-    let mut models = vec![Model::neus(NeusField::new(NeusConfig::room(
-        lo.to_array(),
-        hi.to_array(),
-    )))];
+    let mut room = NeusConfig::room(lo.to_array(), hi.to_array());
+    room.init.radius = 0.45 * (hi - lo).min_element();
+    let mut models = vec![Model::neus(NeusField::new(room))];
     let mut objects = Vec::with_capacity(k);
     for i in 0..k {
         let mut config = NeusConfig::object(HALF.to_array());

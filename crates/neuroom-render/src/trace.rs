@@ -183,4 +183,31 @@ mod tests {
         );
         assert!((hits[0].unwrap() - 2.0).abs() < 1e-3);
     }
+
+    #[test]
+    fn starts_inside_hit_at_once_and_step_limits_give_up() {
+        let sphere = AnalyticField::Sphere {
+            centre: Vec3::ZERO,
+            radius: 0.5,
+            color: AnalyticColor::Constant(Vec3::ONE),
+        };
+        let mut tracer = Tracer::default();
+        let mut hits = Vec::new();
+        let inside = [(Vec3::ZERO, Vec3::X, [0.1, 2.0])];
+        tracer.trace(
+            &sphere,
+            inside.into_iter(),
+            &TraceConfig::default(),
+            &mut hits,
+        );
+        assert_eq!(hits[0], Some(0.1));
+        let few = TraceConfig {
+            max_steps: 2,
+            step_scale: 0.1,
+            ..TraceConfig::default()
+        };
+        let far = [(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, [0.0, 10.0])];
+        let q = tracer.trace(&sphere, far.into_iter(), &few, &mut hits);
+        assert_eq!((q, hits[0]), (2, None));
+    }
 }

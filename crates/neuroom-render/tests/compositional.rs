@@ -405,6 +405,11 @@ fn shared_neus_model_routes_light_code_gradients_per_instance() {
     let mut renderer = Renderer::new(RenderConfig::default());
     renderer.plan(&scene, &rays);
     renderer.forward(&scene);
+    let ids = renderer.instances();
+    assert!(
+        ids.contains(&1) && ids.contains(&2),
+        "both instances of the shared model render"
+    );
     // Keep rays through the middle of an initial sphere (radius 0.24) or clear of both.
     let w = weights(rays.len(), |i| {
         let ray = &rays[i];
