@@ -175,7 +175,7 @@ impl HashGrid {
 
     /// Encodes `u.len()` points of `[0,1]³` into `out` (element `(p, column)` at `strides`, columns
     /// `0..L·F`). Levels `active..` output zero (coarse-to-fine training). With `jac`, also writes
-    /// `d enc / d u` as `[column][point][axis]` (length `L·F · n · 3`), which the normal and the position
+    /// `d enc / d u` as `[column][axis][point]` (length `L·F · 3 · n`), which the normal and the position
     /// gradient need.
     pub fn forward<T: Real>(
         &self,
@@ -196,7 +196,7 @@ impl HashGrid {
     }
 
     /// Level `l` of [`HashGrid::forward`]: writes columns `l·F..(l+1)·F` of `out` and, with `jac`, this
-    /// level's part of the Jacobian (`[feature][point][axis]`, length `F · n · 3`). Callers that encode
+    /// level's part of the Jacobian (`[feature][axis][point]`, length `F · 3 · n`). Callers that encode
     /// many chunks run the levels outermost so that each level's table is read from cache.
     #[allow(clippy::too_many_arguments)] // table, points, level mask, two strided outputs
     pub fn forward_level<T: Real>(
@@ -261,58 +261,75 @@ impl HashGrid {
     }
 }
 
-/// A point's cell in one level: the 8 corner entries (corner `c` is at `+(c&1, c>>1&1, c>>2&1)`) and the
-/// fractional position inside the cell.
-#[inline(always)]
-fn cell<T: Real>(level: &Level, x: &[T; 3]) -> ([u32; 8], [T; 3]) {
-    let res = level.resolution as u32;
-    let resf = T::from_usize(level.resolution);
-    let mut base = [0u32; 3];
-    let mut frac = [T::ZERO; 3];
-    for a in 0..3 {
-        let pos = (x[a] * resf).max(T::ZERO).min(resf);
-        // `pos ≥ 0`, so truncation is the floor.
-        let i = pos.to_u32().min(res - 1);
-        base[a] = i;
-        frac[a] = pos - T::from_u32(i);
+/// Points per sub-block of the level kernels: their corner indices, weights and corner values live in
+/// stack arrays of this length.
+const SUB: usize = 64;
+
+/// Corner entries (corner `c` is at `+(c&1, c>>1&1, c>>2&1)`) and fractional cell positions of up to
+/// [`SUB`] points in one level, stored structure-of-arrays so the loops vectorise.
+struct Cells<T> {
+    idx: [[u32; SUB]; 8],
+    frac: [[T; SUB]; 3],
+}
+
+impl<T: Real> Cells<T> {
+    fn new() -> Self {
+        Self {
+            idx: [[0; SUB]; 8],
+            frac: [[T::ZERO; SUB]; 3],
+        }
     }
-    let [bx, by, bz] = base;
-    let idx = if level.dense {
-        let side = res + 1;
-        let b = bx + side * (by + side * bz);
-        let (dy, dz) = (side, side * side);
-        [
-            b,
-            b + 1,
-            b + dy,
-            b + dy + 1,
-            b + dz,
-            b + dz + 1,
-            b + dz + dy,
-            b + dz + dy + 1,
-        ]
-    } else {
-        let mask = level.entries as u32 - 1;
-        let (y0, z0) = (by.wrapping_mul(PRIME_Y), bz.wrapping_mul(PRIME_Z));
-        let (y1, z1) = (y0.wrapping_add(PRIME_Y), z0.wrapping_add(PRIME_Z));
-        let (x0, x1) = (bx, bx + 1);
-        [
-            (x0 ^ y0 ^ z0) & mask,
-            (x1 ^ y0 ^ z0) & mask,
-            (x0 ^ y1 ^ z0) & mask,
-            (x1 ^ y1 ^ z0) & mask,
-            (x0 ^ y0 ^ z1) & mask,
-            (x1 ^ y0 ^ z1) & mask,
-            (x0 ^ y1 ^ z1) & mask,
-            (x1 ^ y1 ^ z1) & mask,
-        ]
-    };
-    (idx, frac)
+
+    /// Fills the first `u.len() ≤ SUB` slots from the points `u` of `[0,1]³`.
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // structure-of-arrays: several arrays indexed in lockstep
+    fn locate(&mut self, level: &Level, u: &[[T; 3]]) {
+        let res = level.resolution as u32;
+        let resf = T::from_usize(level.resolution);
+        let mut base = [[0u32; SUB]; 3];
+        for a in 0..3 {
+            for (q, x) in u.iter().enumerate() {
+                let pos = (x[a] * resf).max(T::ZERO).min(resf);
+                // `pos ≥ 0`, so truncation is the floor.
+                let i = pos.to_u32().min(res - 1);
+                base[a][q] = i;
+                self.frac[a][q] = pos - T::from_u32(i);
+            }
+        }
+        let m = u.len();
+        if level.dense {
+            let side = res + 1;
+            let (dy, dz) = (side, side * side);
+            for q in 0..m {
+                let b = base[0][q] + side * (base[1][q] + side * base[2][q]);
+                for c in 0..8u32 {
+                    self.idx[c as usize][q] = b + (c & 1) + ((c >> 1) & 1) * dy + (c >> 2) * dz;
+                }
+            }
+        } else {
+            let mask = level.entries as u32 - 1;
+            for q in 0..m {
+                let x0 = base[0][q];
+                let y0 = base[1][q].wrapping_mul(PRIME_Y);
+                let z0 = base[2][q].wrapping_mul(PRIME_Z);
+                let (y1, z1) = (y0.wrapping_add(PRIME_Y), z0.wrapping_add(PRIME_Z));
+                let ys = [y0, y1];
+                let zs = [z0, z1];
+                for c in 0..8usize {
+                    let x = x0 + (c & 1) as u32;
+                    self.idx[c][q] = (x ^ ys[(c >> 1) & 1] ^ zs[c >> 2]) & mask;
+                }
+            }
+        }
+    }
 }
 
 /// One level of the forward pass over all points (see [`HashGrid::forward_level`]). With `JAC`, `jac`
-/// receives `d value / d u` as `[feature][point][axis]`.
+/// receives `d value / d u` as `[feature][axis][point]`. Per sub-block of [`SUB`] points: locate the cells
+/// (vectorised), gather the corners (a tight loop of independent loads, so many cache misses overlap),
+/// interpolate (vectorised).
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // structure-of-arrays: several arrays indexed in lockstep
 fn encode_level<T: Real, const F: usize, const JAC: bool>(
     level: &Level,
     entries: &[T],
@@ -324,25 +341,48 @@ fn encode_level<T: Real, const F: usize, const JAC: bool>(
 ) {
     let n = u.len();
     let res = T::from_usize(level.resolution);
-    for (p, x) in u.iter().enumerate() {
-        let (idx, [fx, fy, fz]) = cell(level, x);
-        let c: [[T; F]; 8] = std::array::from_fn(|k| {
-            let i = idx[k] as usize * F;
-            std::array::from_fn(|f| entries[i + f])
-        });
+    let mut cells = Cells::new();
+    let mut c = [[[T::ZERO; SUB]; F]; 8];
+    let mut v = [T::ZERO; SUB];
+    let mut d = [[T::ZERO; SUB]; 3];
+    for start in (0..n).step_by(SUB) {
+        let m = SUB.min(n - start);
+        cells.locate(level, &u[start..start + m]);
+        for (ck, ik) in c.iter_mut().zip(&cells.idx) {
+            for (q, i) in ik[..m].iter().enumerate() {
+                let e = &entries[*i as usize * F..*i as usize * F + F];
+                for f in 0..F {
+                    ck[f][q] = e[f];
+                }
+            }
+        }
+        let [fx, fy, fz] = &cells.frac;
         for f in 0..F {
-            // Nested lerps: along x (4 edges), then y (2), then z, carrying the partial derivatives.
-            let ex: [T; 4] = std::array::from_fn(|e| c[2 * e + 1][f] - c[2 * e][f]);
-            let ax: [T; 4] = std::array::from_fn(|e| c[2 * e][f] + fx * ex[e]);
-            let ay = [ax[1] - ax[0], ax[3] - ax[2]];
-            let by = [ax[0] + fy * ay[0], ax[2] + fy * ay[1]];
-            out[strides.at(p, column + f)] = by[0] + fz * (by[1] - by[0]);
+            for q in 0..m {
+                // Nested lerps: along x (4 edges), then y (2), then z, carrying the partial derivatives.
+                let ex: [T; 4] = std::array::from_fn(|e| c[2 * e + 1][f][q] - c[2 * e][f][q]);
+                let ax: [T; 4] = std::array::from_fn(|e| c[2 * e][f][q] + fx[q] * ex[e]);
+                let ay = [ax[1] - ax[0], ax[3] - ax[2]];
+                let by = [ax[0] + fy[q] * ay[0], ax[2] + fy[q] * ay[1]];
+                v[q] = by[0] + fz[q] * (by[1] - by[0]);
+                if JAC {
+                    let dx = [
+                        ex[0] + fy[q] * (ex[1] - ex[0]),
+                        ex[2] + fy[q] * (ex[3] - ex[2]),
+                    ];
+                    d[0][q] = (dx[0] + fz[q] * (dx[1] - dx[0])) * res;
+                    d[1][q] = (ay[0] + fz[q] * (ay[1] - ay[0])) * res;
+                    d[2][q] = (by[1] - by[0]) * res;
+                }
+            }
+            for (q, x) in v[..m].iter().enumerate() {
+                out[strides.at(start + q, column + f)] = *x;
+            }
             if JAC {
-                let dx = [ex[0] + fy * (ex[1] - ex[0]), ex[2] + fy * (ex[3] - ex[2])];
-                let j = &mut jac[(f * n + p) * 3..(f * n + p) * 3 + 3];
-                j[0] = (dx[0] + fz * (dx[1] - dx[0])) * res;
-                j[1] = (ay[0] + fz * (ay[1] - ay[0])) * res;
-                j[2] = (by[1] - by[0]) * res;
+                for (a, da) in d.iter().enumerate() {
+                    let o = (f * 3 + a) * n + start;
+                    jac[o..o + m].copy_from_slice(&da[..m]);
+                }
             }
         }
     }
@@ -350,6 +390,7 @@ fn encode_level<T: Real, const F: usize, const JAC: bool>(
 
 /// One level of the table gradient: `grad[corner] += weight · d_enc` for every point and corner.
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // structure-of-arrays: several arrays indexed in lockstep
 fn scatter_level<T: Real, const F: usize>(
     level: &Level,
     u: &[[T; 3]],
@@ -358,24 +399,33 @@ fn scatter_level<T: Real, const F: usize>(
     column: usize,
     grad: &mut [T],
 ) {
-    for (p, x) in u.iter().enumerate() {
-        let d: [T; F] = std::array::from_fn(|f| d_enc[strides.at(p, column + f)]);
-        if d.iter().all(|v| *v == T::ZERO) {
-            continue;
+    let mut cells = Cells::new();
+    let mut w = [[T::ZERO; SUB]; 8];
+    let mut d = [[T::ZERO; SUB]; F];
+    for start in (0..u.len()).step_by(SUB) {
+        let m = SUB.min(u.len() - start);
+        cells.locate(level, &u[start..start + m]);
+        let [fx, fy, fz] = &cells.frac;
+        for q in 0..m {
+            let wx = [T::ONE - fx[q], fx[q]];
+            let wy = [T::ONE - fy[q], fy[q]];
+            let wz = [T::ONE - fz[q], fz[q]];
+            for (k, wk) in w.iter_mut().enumerate() {
+                wk[q] = wx[k & 1] * wy[(k >> 1) & 1] * wz[k >> 2];
+            }
         }
-        let (idx, [fx, fy, fz]) = cell(level, x);
-        let wx = [T::ONE - fx, fx];
-        let wyz = [
-            (T::ONE - fy) * (T::ONE - fz),
-            fy * (T::ONE - fz),
-            (T::ONE - fy) * fz,
-            fy * fz,
-        ];
-        for (k, i) in idx.iter().enumerate() {
-            let w = wx[k & 1] * wyz[k >> 1];
-            let g = &mut grad[*i as usize * F..*i as usize * F + F];
-            for f in 0..F {
-                g[f] += w * d[f];
+        for (f, df) in d.iter_mut().enumerate() {
+            for (q, x) in df[..m].iter_mut().enumerate() {
+                *x = d_enc[strides.at(start + q, column + f)];
+            }
+        }
+        for q in 0..m {
+            for (ik, wk) in cells.idx.iter().zip(&w) {
+                let i = ik[q] as usize * F;
+                let g = &mut grad[i..i + F];
+                for f in 0..F {
+                    g[f] += wk[q] * d[f][q];
+                }
             }
         }
     }

@@ -244,6 +244,7 @@ pub struct Workspace<T> {
     d_enc: Vec<T>,
     d_color_in: Vec<T>,
     rgb: Vec<T>,
+    pos_acc: Vec<T>,
 }
 
 impl<T: Real> Workspace<T> {
@@ -420,6 +421,7 @@ impl<T: Real> NeusField<T> {
             d_enc: vec![T::ZERO; CHUNK * self.config.hash.output_dim()],
             d_color_in: vec![T::ZERO; CHUNK * ci],
             rgb: vec![T::ZERO; CHUNK * 3],
+            pos_acc: vec![T::ZERO; CHUNK * 3],
         }
     }
 
@@ -561,30 +563,48 @@ impl<T: Real> NeusField<T> {
             None,
             Some((&mut ws.d_sdf_in, si)),
         );
-        self.position_grads(&ws.d_sdf_in, &ws.jac, n, &mut ws.gradient);
+        self.split_encoding_grad(ws);
+        let mut gradient = std::mem::take(&mut ws.gradient);
+        self.position_grads(ws, &mut gradient);
+        ws.gradient = gradient;
         for (g, b) in ws.gradient[..n].iter_mut().zip(&ws.base_grad) {
             *g = std::array::from_fn(|a| g[a] + b[a]);
         }
     }
 
-    /// `∂/∂x` of the network part for the `n` points of a chunk, given the gradient of a loss with respect
-    /// to the SDF network's input rows `d_in` and the hash Jacobian `jac` (`[column][point][axis]`).
-    fn position_grads(&self, d_in: &[T], jac: &[T], n: usize, out: &mut [[T; 3]]) {
-        let (enc, si) = (self.config.hash.output_dim(), self.sdf_in_dim());
-        let out = &mut out[..n];
-        out.fill([T::ZERO; 3]);
+    /// Copies the encoding's columns of the SDF input gradient (`ws.d_sdf_in`, row-major) into `ws.d_enc`
+    /// (column-major), where [`NeusField::position_grads`] and the hash-table scatter read them.
+    fn split_encoding_grad(&self, ws: &mut Workspace<T>) {
+        let enc = self.config.hash.output_dim();
+        transpose(
+            &ws.d_sdf_in,
+            self.sdf_in_dim(),
+            &mut ws.d_enc,
+            CHUNK,
+            ws.n,
+            enc,
+        );
+    }
+
+    /// `∂/∂x` of the network part for the `n` points of `ws`'s chunk, given the gradient of a loss with
+    /// respect to the SDF network's input (`ws.d_sdf_in`, and its encoding part in `ws.d_enc`).
+    fn position_grads(&self, ws: &mut Workspace<T>, out: &mut [[T; 3]]) {
+        let (n, enc, si) = (ws.n, self.config.hash.output_dim(), self.sdf_in_dim());
+        let acc = &mut ws.pos_acc;
+        acc.fill(T::ZERO);
         for c in 0..enc {
-            let jc = &jac[c * n * 3..(c + 1) * n * 3];
-            for (p, (g, j)) in out.iter_mut().zip(jc.chunks_exact(3)).enumerate() {
-                let d = d_in[p * si + c];
-                for a in 0..3 {
-                    g[a] += d * j[a];
+            let dc = &ws.d_enc[c * CHUNK..c * CHUNK + n];
+            for (a, acc_a) in acc.chunks_exact_mut(CHUNK).enumerate() {
+                let j = &ws.jac[(c * 3 + a) * n..(c * 3 + a + 1) * n];
+                for ((g, d), j) in acc_a[..n].iter_mut().zip(dc).zip(j) {
+                    *g += *d * *j;
                 }
             }
         }
-        for (p, g) in out.iter_mut().enumerate() {
+        for (p, g) in out[..n].iter_mut().enumerate() {
             for a in 0..3 {
-                g[a] = (g[a] + T::from_f64(2.0) * d_in[p * si + enc + a]) * self.inv_ext[a];
+                let direct = T::from_f64(2.0) * ws.d_sdf_in[p * si + enc + a];
+                g[a] = (acc[a * CHUNK + p] + direct) * self.inv_ext[a];
             }
         }
     }
@@ -692,7 +712,7 @@ impl<T: Real> NeusField<T> {
             Some((&mut ws.d_sdf_in, si)),
         );
         let (enc, od) = (self.config.hash.output_dim(), self.config.object_dim());
-        transpose(&ws.d_sdf_in, si, &mut ws.d_enc, CHUNK, n, enc);
+        self.split_encoding_grad(ws);
         if od > 0 {
             for p in 0..n {
                 let c = codes.object.get(p);
@@ -705,7 +725,7 @@ impl<T: Real> NeusField<T> {
                 matches!(ws.outputs, Some(o) if o != Outputs::Sdf),
                 "backward_chunk: d_points needs a gradient"
             );
-            self.position_grads(&ws.d_sdf_in, &ws.jac, n, d_points);
+            self.position_grads(ws, d_points);
             for ((dp, gb), d) in d_points[..n].iter_mut().zip(&ws.base_grad).zip(d_sdf) {
                 *dp = std::array::from_fn(|a| dp[a] + *d * gb[a]);
             }

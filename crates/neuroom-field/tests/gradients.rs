@@ -76,7 +76,7 @@ fn hash_encoding_gradients_to_table_and_position() {
     for p in 0..u.len() {
         for a in 0..3 {
             let analytic: f64 = (0..w)
-                .map(|k| c[p * w + k] * jac[(k * u.len() + p) * 3 + a])
+                .map(|k| c[p * w + k] * jac[(k * 3 + a) * u.len() + p])
                 .sum();
             let mut up = u.clone();
             up[p][a] += EPS;
