@@ -278,6 +278,17 @@ fn check(what: &str, analytic: f32, scale: f32, h: f32, mut loss: impl FnMut(f32
 
 #[test]
 fn pose_and_tone_gradients_match_finite_differences_through_the_composite() {
+    for sampling in [Sampling::SAFE_REGION, Sampling::CLASSICAL] {
+        let worst = finite_differences(sampling);
+        println!(
+            "{sampling:?}: worst finite-difference error relative to the gradient's scale: {worst:.2e}"
+        );
+    }
+}
+
+/// Checks every pose, 6D, tone and background-tone gradient of one sampling scheme; returns the worst
+/// error relative to its group's gradient scale.
+fn finite_differences(sampling: Sampling) -> f64 {
     let mut scene = scene(60.0);
     scene.objects[0].tone = Tone {
         shift: Vec3::new(0.05, -0.02, 0.1),
@@ -286,7 +297,10 @@ fn pose_and_tone_gradients_match_finite_differences_through_the_composite() {
     scene.background.tone.scale = Vec3::new(1.1, 0.95, 1.0);
     let (camera, pose) = (pinhole(24, 18), camera_pose());
     let rays = camera_rays(&camera, &pose);
-    let mut renderer = Renderer::new(RenderConfig::default());
+    let mut renderer = Renderer::new(RenderConfig {
+        sampling,
+        ..RenderConfig::default()
+    });
     renderer.plan(&scene, &rays);
     renderer.forward(&scene);
     let w = weights(rays.len(), |i| {
@@ -366,8 +380,8 @@ fn pose_and_tone_gradients_match_finite_differences_through_the_composite() {
             },
         ));
     }
-    println!("worst finite-difference error relative to the gradient's scale: {worst:.2e}");
     assert!(g.objects.iter().all(|o| o.translation.length() > 1e-3));
+    worst
 }
 
 /// Two instances of one NeuS model with their own light-code rows: each row's gradient is that
