@@ -569,3 +569,25 @@ fn culled_objects_are_never_queried() {
     assert!(one.queries() < both.queries() && one.segments < both.segments);
     assert!(renderer.instances().iter().all(|&i| i != 2));
 }
+
+/// Tiles rendered in parallel assemble into the same image as one batch of all pixels; a scene without
+/// objects renders its background alone.
+#[test]
+fn tiled_images_equal_one_batch_and_background_alone_renders() {
+    let mut scene = scene(500.0);
+    let (camera, pose) = (pinhole(20, 15), camera_pose());
+    let rays = camera_rays(&camera, &pose);
+    for objects in [2, 0] {
+        scene.objects.truncate(objects);
+        let (rgb, _, mask) = render_image(&scene, &camera, &pose, &RenderConfig::default());
+        let mut renderer = Renderer::new(RenderConfig::default());
+        let batch: Vec<[f32; 3]> = renderer
+            .render(&scene, &rays)
+            .iter()
+            .map(|o| o.rgb.map(|c| c.clamp(0.0, 1.0)))
+            .collect();
+        assert_eq!(rgb.data, batch);
+        assert_eq!(mask.data, renderer.instances());
+        assert!(renderer.outputs().iter().all(|o| o.opacity > 0.99));
+    }
+}
