@@ -14,6 +14,7 @@ pub mod obb;
 pub mod pose;
 pub mod ray;
 pub mod rotation6d;
+pub mod sh;
 
 pub use error::{FormatError, FormatResult};
 pub use image::Image;

@@ -352,64 +352,66 @@ fn store_vertex(
     }
 }
 
+/// Where the body's numbers come from: whitespace-separated text or little-endian binary.
+trait ValueSource {
+    /// The next number, stored as type `kind`.
+    fn next(&mut self, kind: Scalar) -> FormatResult<f64>;
+}
+
+/// Numbers of an ASCII PLY body.
+struct AsciiValues<'a, I: Iterator<Item = &'a str>> {
+    path: &'a Path,
+    tokens: I,
+}
+
+impl<'a, I: Iterator<Item = &'a str>> ValueSource for AsciiValues<'a, I> {
+    fn next(&mut self, _: Scalar) -> FormatResult<f64> {
+        let t = self
+            .tokens
+            .next()
+            .ok_or_else(|| FormatError::file(self.path, "PLY body ends early"))?;
+        t.parse()
+            .map_err(|_| FormatError::file(self.path, format!("bad number `{t}` in PLY body")))
+    }
+}
+
+/// Numbers of a binary little-endian PLY body.
+struct BinaryValues<'a> {
+    path: &'a Path,
+    body: &'a [u8],
+    at: usize,
+}
+
+impl ValueSource for BinaryValues<'_> {
+    fn next(&mut self, kind: Scalar) -> FormatResult<f64> {
+        let bytes = self
+            .body
+            .get(self.at..self.at + kind.size())
+            .ok_or_else(|| FormatError::file(self.path, "PLY body is truncated"))?;
+        self.at += kind.size();
+        Ok(kind.read_le(bytes))
+    }
+}
+
 fn read_ascii_body(path: &Path, body: &[u8], elements: &[Element]) -> FormatResult<TriMesh> {
     let text = String::from_utf8_lossy(body);
-    let mut tokens = text.split_whitespace();
-    let mut next = || -> FormatResult<f64> {
-        let t = tokens
-            .next()
-            .ok_or_else(|| FormatError::file(path, "PLY body ends early"))?;
-        t.parse()
-            .map_err(|_| FormatError::file(path, format!("bad number `{t}` in PLY body")))
+    let mut values = AsciiValues {
+        path,
+        tokens: text.split_whitespace(),
     };
-    let mut mesh = TriMesh::default();
-    let mut n_vertices = 0;
-    for el in elements {
-        let layout = if el.name == "vertex" {
-            Some(vertex_layout(path, el)?)
-        } else {
-            None
-        };
-        for _ in 0..el.count {
-            let mut values = Vec::with_capacity(el.properties.len());
-            let mut face = Vec::new();
-            for p in &el.properties {
-                match p.list_count {
-                    None => values.push(next()?),
-                    Some(_) => {
-                        let n = next()? as usize;
-                        face = (0..n).map(|_| next()).collect::<FormatResult<_>>()?;
-                        values.push(f64::NAN);
-                    }
-                }
-            }
-            if let Some((xyz, rgb)) = layout {
-                store_vertex(
-                    &mut mesh,
-                    &values,
-                    xyz,
-                    rgb.map(|c| (c, color_scale(&el.properties[c[0]]))),
-                );
-            } else if el.name == "face" {
-                push_face(path, &mut mesh, &face, n_vertices)?;
-            }
-        }
-        if el.name == "vertex" {
-            n_vertices = el.count;
-        }
-    }
-    Ok(mesh)
+    read_elements(path, &mut values, elements)
 }
 
 fn read_binary_body(path: &Path, body: &[u8], elements: &[Element]) -> FormatResult<TriMesh> {
-    let mut at = 0usize;
-    let mut take = |n: usize| -> FormatResult<&[u8]> {
-        let s = body
-            .get(at..at + n)
-            .ok_or_else(|| FormatError::file(path, "PLY body is truncated"))?;
-        at += n;
-        Ok(s)
-    };
+    read_elements(path, &mut BinaryValues { path, body, at: 0 }, elements)
+}
+
+/// Reads every element in header order, keeping vertices and faces and skipping the rest.
+fn read_elements(
+    path: &Path,
+    source: &mut dyn ValueSource,
+    elements: &[Element],
+) -> FormatResult<TriMesh> {
     let mut mesh = TriMesh::default();
     let mut n_vertices = 0;
     for el in elements {
@@ -423,25 +425,19 @@ fn read_binary_body(path: &Path, body: &[u8], elements: &[Element]) -> FormatRes
             let mut face = Vec::new();
             for p in &el.properties {
                 match p.list_count {
-                    None => values.push(p.kind.read_le(take(p.kind.size())?)),
-                    Some(c) => {
-                        let n = c.read_le(take(c.size())?) as usize;
-                        let raw = take(n * p.kind.size())?;
-                        face = raw
-                            .chunks(p.kind.size())
-                            .map(|b| p.kind.read_le(b))
-                            .collect();
+                    None => values.push(source.next(p.kind)?),
+                    Some(count_kind) => {
+                        let n = source.next(count_kind)? as usize;
+                        face = (0..n)
+                            .map(|_| source.next(p.kind))
+                            .collect::<FormatResult<_>>()?;
                         values.push(f64::NAN);
                     }
                 }
             }
             if let Some((xyz, rgb)) = layout {
-                store_vertex(
-                    &mut mesh,
-                    &values,
-                    xyz,
-                    rgb.map(|c| (c, color_scale(&el.properties[c[0]]))),
-                );
+                let colors = rgb.map(|c| (c, color_scale(&el.properties[c[0]])));
+                store_vertex(&mut mesh, &values, xyz, colors);
             } else if el.name == "face" {
                 push_face(path, &mut mesh, &face, n_vertices)?;
             }

@@ -4,10 +4,11 @@
 //! colour temperature in Kelvin. [`Lighting`] is the serialisable description written next to
 //! every capture and panorama; [`Environment`] holds the environment's irradiance.
 
-use glam::{DVec2, Vec3, Vec3A};
+use glam::{DVec2, Vec3};
 use neuroom_core::camera::{CameraModel, Equirect};
 use neuroom_core::formats::EnvMap;
 use neuroom_core::image::srgb_to_linear;
+use neuroom_core::sh;
 use serde::{Deserialize, Serialize};
 
 /// Linear RGB of a black body at `kelvin`, normalised so its largest channel is 1 (Tanner Helland's
@@ -148,61 +149,14 @@ pub struct Lighting {
 /// environment light costs nine multiply-adds per shading point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Environment {
-    coeffs: [Vec3; 9],
+    radiance: [Vec3; 9],
 }
-
-fn sh_basis(d: Vec3) -> [f32; 9] {
-    let (x, y, z) = (d.x, d.y, d.z);
-    [
-        0.282_095,
-        0.488_603 * y,
-        0.488_603 * z,
-        0.488_603 * x,
-        1.092_548 * x * y,
-        1.092_548 * y * z,
-        0.315_392 * (3.0 * z * z - 1.0),
-        1.092_548 * x * z,
-        0.546_274 * (x * x - y * y),
-    ]
-}
-
-/// Convolution of each SH band with the clamped cosine (Ramamoorthi & Hanrahan).
-const BAND_WEIGHT: [f32; 9] = [
-    std::f32::consts::PI,
-    2.0 * std::f32::consts::FRAC_PI_3,
-    2.0 * std::f32::consts::FRAC_PI_3,
-    2.0 * std::f32::consts::FRAC_PI_3,
-    std::f32::consts::FRAC_PI_4,
-    std::f32::consts::FRAC_PI_4,
-    std::f32::consts::FRAC_PI_4,
-    std::f32::consts::FRAC_PI_4,
-    std::f32::consts::FRAC_PI_4,
-];
 
 impl Environment {
     /// Projects an environment map (FORMAT.md panorama layout in the world frame, see
-    /// [`EnvMap`]) onto the first nine spherical harmonics, convolved with the clamped cosine.
+    /// [`EnvMap`]) onto the first nine spherical harmonics.
     pub fn from_envmap(map: &EnvMap) -> Self {
-        let (w, h) = (map.width as usize, map.height as usize);
-        let mut coeffs = [Vec3::ZERO; 9];
-        for v in 0..h {
-            let lat = std::f32::consts::PI * (0.5 - (v as f32 + 0.5) / h as f32);
-            let solid_angle =
-                lat.cos() * (std::f32::consts::PI / h as f32) * (std::f32::consts::TAU / w as f32);
-            for u in 0..w {
-                let d = map
-                    .direction(DVec2::new(u as f64 + 0.5, v as f64 + 0.5))
-                    .as_vec3();
-                let radiance = Vec3::from(map.data[v * w + u]);
-                for (c, y) in coeffs.iter_mut().zip(sh_basis(d)) {
-                    *c += radiance * (y * solid_angle);
-                }
-            }
-        }
-        for (c, w) in coeffs.iter_mut().zip(BAND_WEIGHT) {
-            *c *= w;
-        }
-        Self { coeffs }
+        Self { radiance: sh::project_radiance(map) }
     }
 
     /// A built-in analytic studio environment: a bright soft sky above, a dim floor below, and a
@@ -228,12 +182,7 @@ impl Environment {
     /// Irradiance (W/m²) on a surface with unit normal `n`, before any occlusion.
     #[inline]
     pub fn irradiance(&self, n: Vec3) -> Vec3 {
-        let b = sh_basis(n);
-        let mut e = Vec3A::ZERO;
-        for (c, y) in self.coeffs.iter().zip(b) {
-            e += Vec3A::from(*c) * y;
-        }
-        Vec3::from(e).max(Vec3::ZERO)
+        sh::irradiance(&self.radiance, n)
     }
 }
 

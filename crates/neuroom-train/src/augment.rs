@@ -27,9 +27,7 @@ impl Augmentation {
         for p in paths {
             let map = read_envmap(p)?;
             aug.names.push(stem(p));
-            aug.lights.push(ShIrradiance::from_equirect(
-                map.width, map.height, &map.data,
-            ));
+            aug.lights.push(ShIrradiance::from_envmap(&map));
         }
         Ok(aug)
     }

@@ -5,21 +5,6 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 pub use neuroom_synth::{Preset, Progress, Summary};
 
-/// The vendored CC0 environment maps (`assets/hdri/`), the default ambient light of synthetic rooms.
-pub fn vendored_hdris() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/hdri");
-    let mut maps: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .map(|entries| {
-            entries
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|x| x == "exr"))
-                .collect()
-        })
-        .unwrap_or_default();
-    maps.sort();
-    maps
-}
-
 /// Generates the room of preset `preset` (`tiny`, `bedroom`, `living`, `office`) into `out`.
 /// With no `hdris`, the vendored maps light it.
 pub fn synthesize(
@@ -37,7 +22,7 @@ pub fn synthesize(
         )
     })?;
     let hdris = if hdris.is_empty() {
-        vendored_hdris()
+        neuroom_train::augment::vendored_env_maps()
     } else {
         hdris.to_vec()
     };
