@@ -172,6 +172,10 @@ impl<F: Field> Renderer<F> {
         let s = &mut self.scratch;
         let seg = &mut self.samples[l];
         let count = seg.rays.len();
+        seg.t.clear();
+        if count == 0 {
+            return;
+        }
         s.coarse_t.resize(count * nc, 0.0);
         s.coarse_points.resize(count * nc, Vec3::ZERO);
         s.coarse_sdf.resize(count * nc, 0.0);

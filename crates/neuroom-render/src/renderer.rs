@@ -189,6 +189,9 @@ impl<F: Field> Renderer<F> {
         let count = s.t.len();
         s.points.resize(count, Vec3::ZERO);
         s.dirs.resize(count, Vec3::ZERO);
+        if count == 0 {
+            return;
+        }
         let rt = layer.rotation.transpose();
         let rays = &self.rays;
         s.points
@@ -329,6 +332,9 @@ impl<F: Field> Renderer<F> {
     fn field_backward(&mut self, scene: &Scene<F>, l: usize, grads: &mut Params<f32>) {
         let layer = self.layers[l];
         let (s, g) = (&mut self.samples[l], &mut self.grads[l]);
+        if s.points.is_empty() {
+            return;
+        }
         let query = Query {
             points: &s.points,
             dirs: &s.dirs,
