@@ -224,8 +224,8 @@ impl HashGrid {
         let level = &self.levels[l];
         let entries = &table[level.offset..level.offset + level.entries * f];
         with_features!(f, F => match jac {
-            Some(j) => encode_level::<T, F, true>(level, entries, u, out, strides, l * F, j),
-            None => encode_level::<T, F, false>(level, entries, u, out, strides, l * F, &mut []),
+            Some(j) => simd::encode::<T, F, true>(level, entries, u, out, strides, l * F, j),
+            None => simd::encode::<T, F, false>(level, entries, u, out, strides, l * F, &mut []),
         })
     }
 
@@ -254,10 +254,126 @@ impl HashGrid {
                 let level = &self.levels[l];
                 with_features!(self.config.features, F => {
                     for (u, d_enc) in segments {
-                        scatter_level::<T, F>(level, u, d_enc, strides, l * F, g);
+                        simd::scatter::<T, F>(level, u, d_enc, strides, l * F, g);
                     }
                 })
             });
+    }
+}
+
+/// The level kernels compiled for the widest vector unit the CPU has (runtime detection; the crate itself
+/// is built for the baseline target). They are plain loops over structure-of-arrays, so recompiling them
+/// with AVX-512 or AVX2 enabled is all it takes to vectorise them 16 or 8 lanes wide.
+mod simd {
+    use super::{Level, Strides, encode_level, scatter_level};
+    use crate::real::Real;
+
+    /// [`encode_level`] on the best instruction set available.
+    #[allow(clippy::too_many_arguments)] // as `encode_level`
+    pub(super) fn encode<T: Real, const F: usize, const JAC: bool>(
+        level: &Level,
+        entries: &[T],
+        u: &[[T; 3]],
+        out: &mut [T],
+        strides: Strides,
+        column: usize,
+        jac: &mut [T],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has the features `encode_avx512` is compiled for.
+            return unsafe {
+                encode_avx512::<T, F, JAC>(level, entries, u, out, strides, column, jac)
+            };
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU has the features `encode_avx2` is compiled for.
+            return unsafe {
+                encode_avx2::<T, F, JAC>(level, entries, u, out, strides, column, jac)
+            };
+        }
+        encode_level::<T, F, JAC>(level, entries, u, out, strides, column, jac)
+    }
+
+    /// [`scatter_level`] on the best instruction set available.
+    pub(super) fn scatter<T: Real, const F: usize>(
+        level: &Level,
+        u: &[[T; 3]],
+        d_enc: &[T],
+        strides: Strides,
+        column: usize,
+        grad: &mut [T],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has the features `scatter_avx512` is compiled for.
+            return unsafe { scatter_avx512::<T, F>(level, u, d_enc, strides, column, grad) };
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU has the features `scatter_avx2` is compiled for.
+            return unsafe { scatter_avx2::<T, F>(level, u, d_enc, strides, column, grad) };
+        }
+        scatter_level::<T, F>(level, u, d_enc, strides, column, grad)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq,avx2,fma,bmi1,bmi2")]
+    #[allow(clippy::too_many_arguments)] // as `encode_level`
+    fn encode_avx512<T: Real, const F: usize, const JAC: bool>(
+        level: &Level,
+        entries: &[T],
+        u: &[[T; 3]],
+        out: &mut [T],
+        strides: Strides,
+        column: usize,
+        jac: &mut [T],
+    ) {
+        encode_level::<T, F, JAC>(level, entries, u, out, strides, column, jac)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2")]
+    #[allow(clippy::too_many_arguments)] // as `encode_level`
+    fn encode_avx2<T: Real, const F: usize, const JAC: bool>(
+        level: &Level,
+        entries: &[T],
+        u: &[[T; 3]],
+        out: &mut [T],
+        strides: Strides,
+        column: usize,
+        jac: &mut [T],
+    ) {
+        encode_level::<T, F, JAC>(level, entries, u, out, strides, column, jac)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq,avx2,fma,bmi1,bmi2")]
+    fn scatter_avx512<T: Real, const F: usize>(
+        level: &Level,
+        u: &[[T; 3]],
+        d_enc: &[T],
+        strides: Strides,
+        column: usize,
+        grad: &mut [T],
+    ) {
+        scatter_level::<T, F>(level, u, d_enc, strides, column, grad)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2")]
+    fn scatter_avx2<T: Real, const F: usize>(
+        level: &Level,
+        u: &[[T; 3]],
+        d_enc: &[T],
+        strides: Strides,
+        column: usize,
+        grad: &mut [T],
+    ) {
+        scatter_level::<T, F>(level, u, d_enc, strides, column, grad)
     }
 }
 
