@@ -33,6 +33,9 @@ ON_TOL = 0.03             # box bottom vs supporter's top for "on:<name>" object
 MESH_SIZE_TOL = 0.03      # relative bounding-box extent error of a GT mesh
 OVERLAP_MAX = 0.25        # box interpenetration, fraction of the smaller box's volume
 ALPHA_DISAGREE_MAX = 0.005
+MESH_CUTOFF = 0.01        # distances to the GT mesh are measured up to this
+MESH_MEDIAN_MAX = 0.005   # median distance of object pixels to their GT mesh
+MESH_MEDIAN_WARN = 0.001
 
 
 class Report:
@@ -812,6 +815,7 @@ def check_capture_pixels(rep, room_info, cap, max_frames, stride, figures):
     alpha_bad = alpha_total = 0
     edge_scores = []
     box_in = {oid: [0, 0] for oid in own_ids}
+    obj_points = {oid: [] for oid in own_ids}
     extents = {oid: [[math.inf, -math.inf] for _ in range(3)] for oid in own_ids}
     errors_all = []
     pairs_done = 0
@@ -861,6 +865,7 @@ def check_capture_pixels(rep, room_info, cap, max_frames, stride, figures):
                 ext = extents[oid]
                 for p, _i in pts:
                     q = transform(c2o, p)
+                    obj_points[oid].append(q)
                     box_in[oid][1] += 1
                     if abs(q[0]) <= half[0] and abs(q[1]) <= half[1] and abs(q[2]) <= half[2]:
                         box_in[oid][0] += 1
@@ -915,6 +920,10 @@ def check_capture_pixels(rep, room_info, cap, max_frames, stride, figures):
             rep.warn(cap.json_path, f"objects[{o['name']}].size",
                      "the object's pixels fill only " + ", ".join(f"{c:.2f}" for c in cover)
                      + " of the box extents: size may be too large")
+    for oid, pts in obj_points.items():
+        check_against_mesh(rep, room_info, own_ids[oid], pts, cap.json_path,
+                           f"objects[{own_ids[oid]['name']}].capture_to_object / frames[].transform_matrix",
+                           "capture", figures)
     if errors_all:
         med = median(errors_all)
         within = sum(1 for e in errors_all if e < 0.01) / len(errors_all)
@@ -933,6 +942,27 @@ def check_capture_pixels(rep, room_info, cap, max_frames, stride, figures):
             rep.warn(cap.json_path, "k1/k2/p1/p2", "distorted camera: geometry checks skipped")
         else:
             rep.warn(cap.json_path, "frames", "no pair of views overlaps enough to test depth reprojection")
+
+
+def check_against_mesh(rep, room_info, obj, points, path, field, what, figures):
+    """Object-frame points of an object's pixels must lie on its ground-truth mesh."""
+    if not points:
+        return
+    index = mesh_index(room_info["room"], obj["name"])
+    if index is None:
+        return
+    d = mesh_distances(index, points)
+    med = median(d)
+    within = sum(1 for x in d if x < MESH_CUTOFF) / len(d)
+    figures.setdefault("mesh_dist", []).append((what, obj["name"], med, within))
+    rep.info(path, f"object {obj['name']!r}: {what} pixels vs meshes/{obj['name']}.ply: median distance "
+             f"{1000 * med:.2f} mm, {100 * within:.1f} % within {100 * MESH_CUTOFF:.0f} cm ({len(d)} points)")
+    if med > MESH_MEDIAN_MAX:
+        rep.error(path, field, f"{obj['name']!r} pixels lie off its ground-truth mesh: median distance "
+                  f"{'≥ ' if med >= MESH_CUTOFF else ''}{1000 * med:.1f} mm (need ≤ {1000 * MESH_MEDIAN_MAX:.0f} mm)")
+    elif med > MESH_MEDIAN_WARN:
+        rep.warn(path, field, f"{obj['name']!r} pixels lie {1000 * med:.1f} mm (median) from its ground-truth mesh: "
+                 "a small pose or intrinsics offset?")
 
 
 def check_edge_scores(rep, path, scores):
@@ -1049,8 +1079,8 @@ PLY_TYPES = {"char": "b", "int8": "b", "uchar": "B", "uint8": "B", "short": "h",
              "float": "f", "float32": "f", "double": "d", "float64": "d"}
 
 
-def ply_bbox(path):
-    """(min xyz, max xyz, vertex count, face count) of a PLY (ascii, binary little or big endian)."""
+def ply_read(path):
+    """(vertices [(x, y, z)], faces [(i, j, k)] fan-triangulated) of a PLY: ascii, binary little or big endian."""
     with open(path, "rb") as f:
         data = f.read()
     if not data.startswith(b"ply"):
@@ -1080,9 +1110,12 @@ def ply_bbox(path):
                 elements[-1]["props"].append(("scalar", parts[1], parts[2]))
     if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
         raise ValueError(f"unsupported format {fmt!r}")
-    lo = [math.inf] * 3
-    hi = [-math.inf] * 3
-    nverts = nfaces = 0
+    verts, faces = [], []
+
+    def add_face(idx):
+        for k in range(1, len(idx) - 1):
+            faces.append((idx[0], idx[k], idx[k + 1]))
+
     if fmt == "ascii":
         tokens = data[body_pos:].split()
         tp = 0
@@ -1091,57 +1124,178 @@ def ply_bbox(path):
                 vals = {}
                 for prop in el["props"]:
                     if prop[0] == "list":
-                        n = int(tokens[tp]); tp += 1 + n
+                        n = int(tokens[tp])
+                        vals[prop[3]] = [int(x) for x in tokens[tp + 1: tp + 1 + n]]
+                        tp += 1 + n
                     else:
-                        vals[prop[2]] = float(tokens[tp]); tp += 1
+                        vals[prop[2]] = float(tokens[tp])
+                        tp += 1
                 if el["name"] == "vertex":
-                    xyz = (vals["x"], vals["y"], vals["z"])
-                    for k in range(3):
-                        lo[k] = min(lo[k], xyz[k]); hi[k] = max(hi[k], xyz[k])
-            if el["name"] == "vertex":
-                nverts = el["count"]
-            elif el["name"] == "face":
-                nfaces = el["count"]
-        return lo, hi, nverts, nfaces
-    endian = "<" if fmt == "binary_little_endian" else ">"
-    pos = body_pos
-    for el in elements:
-        props = el["props"]
-        if el["name"] == "vertex":
-            nverts = el["count"]
-        elif el["name"] == "face":
-            nfaces = el["count"]
-        if all(p[0] == "scalar" for p in props):
-            st = struct.Struct(endian + "".join(PLY_TYPES[p[1]] for p in props))
-            if el["name"] == "vertex":
-                names = [p[2] for p in props]
-                ix, iy, iz = names.index("x"), names.index("y"), names.index("z")
-                for rec in st.iter_unpack(data[pos: pos + st.size * el["count"]]):
-                    for k, j in enumerate((ix, iy, iz)):
-                        v = rec[j]
-                        if v < lo[k]:
-                            lo[k] = v
-                        if v > hi[k]:
-                            hi[k] = v
-            pos += st.size * el["count"]
-        else:
+                    verts.append((vals["x"], vals["y"], vals["z"]))
+                elif el["name"] == "face":
+                    idx = vals.get("vertex_indices", vals.get("vertex_index"))
+                    if idx is not None:
+                        add_face(idx)
+    else:
+        endian = "<" if fmt == "binary_little_endian" else ">"
+        pos = body_pos
+        for el in elements:
+            props = el["props"]
+            if all(p[0] == "scalar" for p in props):
+                st = struct.Struct(endian + "".join(PLY_TYPES[p[1]] for p in props))
+                chunk = data[pos: pos + st.size * el["count"]]
+                if len(chunk) < st.size * el["count"]:
+                    raise ValueError("file shorter than its header says")
+                if el["name"] == "vertex":
+                    names = [p[2] for p in props]
+                    ix, iy, iz = names.index("x"), names.index("y"), names.index("z")
+                    verts = [(r[ix], r[iy], r[iz]) for r in st.iter_unpack(chunk)]
+                pos += st.size * el["count"]
+                continue
             if el["name"] == "vertex":
                 raise ValueError("vertex element with list properties")
-            if all(e["name"] != "vertex" for e in elements[elements.index(el):]):
-                break  # nothing left to read
+            is_face = el["name"] == "face"
             for _ in range(el["count"]):
                 for p in props:
                     if p[0] == "list":
                         cst = struct.Struct(endian + PLY_TYPES[p[1]])
                         (n,) = cst.unpack_from(data, pos)
-                        pos += cst.size + n * struct.calcsize(endian + PLY_TYPES[p[2]])
+                        pos += cst.size
+                        ist = struct.Struct(endian + PLY_TYPES[p[2]] * n)
+                        if is_face and p[3] in ("vertex_indices", "vertex_index"):
+                            add_face(ist.unpack_from(data, pos))
+                        pos += ist.size
                     else:
                         pos += struct.calcsize(endian + PLY_TYPES[p[1]])
-        if pos > len(data):
-            raise ValueError("file shorter than its header says")
-    if nverts == 0:
+            if pos > len(data):
+                raise ValueError("file shorter than its header says")
+    if not verts:
         raise ValueError("no vertices")
-    return lo, hi, nverts, nfaces
+    nv = len(verts)
+    for f in faces:
+        if min(f) < 0 or max(f) >= nv:
+            raise ValueError(f"face index out of range (vertices: {nv})")
+    return verts, faces
+
+
+def ply_bbox(path):
+    """(min xyz, max xyz, vertex count, face count) of a PLY."""
+    verts, faces = ply_read(path)
+    lo = [min(v[k] for v in verts) for k in range(3)]
+    hi = [max(v[k] for v in verts) for k in range(3)]
+    return lo, hi, len(verts), len(faces)
+
+
+def closest_on_triangle(p, a, b, c):
+    """Squared distance from p to triangle abc (Ericson, Real-Time Collision Detection 5.1.5)."""
+    ab = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
+    ac = (c[0] - a[0], c[1] - a[1], c[2] - a[2])
+    ap = (p[0] - a[0], p[1] - a[1], p[2] - a[2])
+    d1 = ab[0] * ap[0] + ab[1] * ap[1] + ab[2] * ap[2]
+    d2 = ac[0] * ap[0] + ac[1] * ap[1] + ac[2] * ap[2]
+    if d1 <= 0 and d2 <= 0:
+        q = a
+    else:
+        bp = (p[0] - b[0], p[1] - b[1], p[2] - b[2])
+        d3 = ab[0] * bp[0] + ab[1] * bp[1] + ab[2] * bp[2]
+        d4 = ac[0] * bp[0] + ac[1] * bp[1] + ac[2] * bp[2]
+        cp = (p[0] - c[0], p[1] - c[1], p[2] - c[2])
+        d5 = ab[0] * cp[0] + ab[1] * cp[1] + ab[2] * cp[2]
+        d6 = ac[0] * cp[0] + ac[1] * cp[1] + ac[2] * cp[2]
+        vc = d1 * d4 - d3 * d2
+        vb = d5 * d2 - d1 * d6
+        va = d3 * d6 - d5 * d4
+        if d3 >= 0 and d4 <= d3:
+            q = b
+        elif vc <= 0 and d1 >= 0 and d3 <= 0:
+            t = d1 / (d1 - d3)
+            q = (a[0] + t * ab[0], a[1] + t * ab[1], a[2] + t * ab[2])
+        elif d6 >= 0 and d5 <= d6:
+            q = c
+        elif vb <= 0 and d2 >= 0 and d6 <= 0:
+            t = d2 / (d2 - d6)
+            q = (a[0] + t * ac[0], a[1] + t * ac[1], a[2] + t * ac[2])
+        elif va <= 0 and (d4 - d3) >= 0 and (d5 - d6) >= 0:
+            t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+            q = (b[0] + t * (c[0] - b[0]), b[1] + t * (c[1] - b[1]), b[2] + t * (c[2] - b[2]))
+        else:
+            den = 1.0 / (va + vb + vc)
+            v = vb * den
+            w = vc * den
+            q = (a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w, a[2] + ab[2] * v + ac[2] * w)
+    return (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 + (p[2] - q[2]) ** 2
+
+
+class MeshIndex:
+    """Point-to-mesh distance up to `cutoff`: triangles hashed into cells of that size (dilated by it)."""
+
+    def __init__(self, verts, faces, cutoff=0.02):
+        self.cell = cutoff
+        self.grid = {}
+        cell = cutoff
+        for f in faces:
+            a, b, c = verts[f[0]], verts[f[1]], verts[f[2]]
+            lo = [int(math.floor((min(a[k], b[k], c[k]) - cell) / cell)) for k in range(3)]
+            hi = [int(math.floor((max(a[k], b[k], c[k]) + cell) / cell)) for k in range(3)]
+            if (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1) > 200000:
+                continue  # absurdly large triangle: leave it out rather than stall
+            tri = (a, b, c)
+            for ix in range(lo[0], hi[0] + 1):
+                for iy in range(lo[1], hi[1] + 1):
+                    for iz in range(lo[2], hi[2] + 1):
+                        self.grid.setdefault((ix, iy, iz), []).append(tri)
+        # Cells crowded with tiny triangles keep their vertices only: there, the nearest vertex is as good.
+        self.points = {}
+        for key in [k for k, v in self.grid.items() if len(v) > 400]:
+            self.points[key] = list({v for tri in self.grid.pop(key) for v in tri})
+
+    def distance(self, p):
+        key = (int(math.floor(p[0] / self.cell)), int(math.floor(p[1] / self.cell)), int(math.floor(p[2] / self.cell)))
+        best = self.cell * self.cell
+        pts = self.points.get(key)
+        if pts is not None:
+            x, y, z = p
+            for q in pts:
+                d = (x - q[0]) ** 2 + (y - q[1]) ** 2 + (z - q[2]) ** 2
+                if d < best:
+                    best = d
+            return math.sqrt(best)
+        tris = self.grid.get(key)
+        if not tris:
+            return self.cell
+        for a, b, c in tris:
+            d = closest_on_triangle(p, a, b, c)
+            if d < best:
+                best = d
+        return math.sqrt(best)
+
+
+_MESH_CACHE = {}
+
+
+def mesh_index(room, name):
+    """The MeshIndex of meshes/<name>.ply, or None when there is none (or it does not parse)."""
+    if name in _MESH_CACHE:
+        return _MESH_CACHE[name]
+    path = os.path.join(room, "meshes", name + ".ply")
+    idx = None
+    if os.path.isfile(path):
+        try:
+            verts, faces = ply_read(path)
+            if faces:
+                idx = MeshIndex(verts, faces, MESH_CUTOFF)
+        except (ValueError, KeyError, IndexError, struct.error, OSError):
+            idx = None  # reported by check_meshes
+    _MESH_CACHE[name] = idx
+    return idx
+
+
+def mesh_distances(index, points, limit=600):
+    """Distances (capped at the cutoff) of an evenly thinned subset of object-frame points."""
+    if len(points) > limit:
+        step = len(points) / limit
+        points = [points[int(i * step)] for i in range(limit)]
+    return [index.distance(p) for p in points]
 
 
 def check_meshes(rep, room, room_info, figures):
@@ -1355,6 +1509,7 @@ def check_arrangement_geometry(rep, pdir, stem, arr, room_info, by_id, by_name, 
     half_out = {oid: [s / 2 + BOX_MARGIN_PANO for s in by_id[oid]["size"]] for oid in poses}
     half_in = {oid: [s / 2 - BOX_MARGIN_PANO for s in by_id[oid]["size"]] for oid in poses}
     counts = {oid: [0, 0] for oid in poses}
+    obj_points = {oid: [] for oid in poses}
     bg_in = bg_total = 0
     for v in range(stride // 2, H, stride):
         lat = math.pi * (0.5 - (v + 0.5) / H)
@@ -1371,6 +1526,7 @@ def check_arrangement_geometry(rep, pdir, stem, arr, room_info, by_id, by_name, 
                 if k not in w2o:
                     continue
                 q = transform(w2o[k], p)
+                obj_points[k].append(q)
                 hb = half_out[k]
                 counts[k][1] += 1
                 if abs(q[0]) <= hb[0] and abs(q[1]) <= hb[1] and abs(q[2]) <= hb[2]:
@@ -1396,6 +1552,9 @@ def check_arrangement_geometry(rep, pdir, stem, arr, room_info, by_id, by_name, 
             rep.error(path, f"objects[{by_id[oid]['name']}].object_to_world",
                       f"only {100 * frac:.1f} % of the panorama's pixels with id {oid} lie inside the object's box "
                       f"(margin {100 * BOX_MARGIN_PANO:.0f} cm; need ≥ {100 * BOX_INSIDE_MIN:.0f} %)")
+    for oid, pts in obj_points.items():
+        check_against_mesh(rep, room_info, by_id[oid], pts, path,
+                           f"objects[{by_id[oid]['name']}].object_to_world", "panorama", figures)
     bg_frac = bg_in / bg_total if bg_total else 0.0
     figures.setdefault("pano_bg", []).append(bg_frac)
     rep.info(path, "mask pixels inside their box: " + (", ".join(parts) if parts else "(no object pixels)")
@@ -1413,6 +1572,7 @@ def validate(room, max_frames=6, stride=4, quiet=False):
     info = check_room_json(rep, room)
     if info is None:
         return rep, figures
+    info["room"] = room
     caps = []
     seen = set()
     if info["background"] is not None and os.path.isfile(os.path.join(room, info["background"], "transforms.json")):
@@ -1476,6 +1636,11 @@ def main(argv):
         summary.append(f"id-0 panorama pixels in a box max {100 * max(figures['pano_bg']):.2f} %")
     if figures.get("overlap"):
         summary.append(f"max box overlap {100 * max(figures['overlap']):.1f} %")
+    if figures.get("mesh_dist"):
+        for what in ("capture", "panorama"):
+            ms = [m for w, _n, m, _f in figures["mesh_dist"] if w == what]
+            if ms:
+                summary.append(f"{what} object pixels to GT mesh: worst median {1000 * max(ms):.2f} mm")
     if figures.get("mesh"):
         summary.append(f"mesh bbox vs size max {100 * max(r for _n, r, _c in figures['mesh']):.2f} %")
     for s in summary:

@@ -15,10 +15,11 @@ const BLENDER_LITE: &str = concat!(
     "/../../../shared/data/blender-lite"
 );
 
-/// Runs the validator on `room`; returns its exit code and everything it printed.
-fn validate(room: &Path) -> (i32, String) {
+/// Runs the validator on `room` (with extra `args`); returns its exit code and everything it printed.
+fn validate(room: &Path, args: &[&str]) -> (i32, String) {
     let out = Command::new("python3")
         .arg(VALIDATOR)
+        .args(args)
         .arg(room)
         .output()
         .unwrap_or_else(|e| {
@@ -63,8 +64,8 @@ fn write_json(path: &Path, value: &serde_json::Value) {
     fs::write(path, serde_json::to_string_pretty(value).unwrap()).unwrap();
 }
 
-fn assert_valid(room: &Path, what: &str) {
-    let (code, text) = validate(room);
+fn assert_valid(room: &Path, what: &str, args: &[&str]) {
+    let (code, text) = validate(room, args);
     println!("--- {what}\n{text}");
     assert_eq!(
         code, 0,
@@ -104,7 +105,11 @@ fn frame_file(capture: &Path, frame: usize, key: &str) -> PathBuf {
 fn synthetic_tiny_rooms_pass_the_independent_validator() {
     for seed in [1u64, 2] {
         let room = synth_tiny(seed);
-        assert_valid(room.path(), &format!("synthetic tiny room, seed {seed}"));
+        assert_valid(
+            room.path(),
+            &format!("synthetic tiny room, seed {seed}"),
+            &[],
+        );
     }
 }
 
@@ -115,7 +120,8 @@ fn blender_rendered_room_passes_the_independent_validator() {
         eprintln!("skipped: {BLENDER_LITE} is absent (shared data not checked out)");
         return;
     }
-    assert_valid(room, "blender-lite");
+    // Four frames per capture keep this under ten seconds; the command line default is six.
+    assert_valid(room, "blender-lite", &["--max-frames", "4"]);
 }
 
 #[test]
@@ -124,6 +130,7 @@ fn the_validator_rejects_broken_rooms() {
     assert_valid(
         source.path(),
         "synthetic tiny room, seed 5 (before mutation)",
+        &["--max-frames", "3"],
     );
     type Mutation = fn(&Path);
     let mutations: [(&str, &str, Mutation); 4] = [
@@ -172,7 +179,7 @@ fn the_validator_rejects_broken_rooms() {
         let copy = tempfile::tempdir().unwrap();
         copy_dir(source.path(), copy.path());
         mutate(copy.path());
-        let (code, text) = validate(copy.path());
+        let (code, text) = validate(copy.path(), &["--max-frames", "3", "--quiet"]);
         assert_eq!(
             code, 1,
             "the validator must reject a room with a {what}:\n{text}"
