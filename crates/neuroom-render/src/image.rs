@@ -1,5 +1,6 @@
 //! Whole images of a scene for either camera kind: colour, depth (pinhole: z-depth; panorama: ray
-//! distance, as FORMAT.md stores them) and instance ids, rendered in tiles of rows in parallel.
+//! distance, as FORMAT.md stores them) and instance ids, rendered in tiles of pixels in parallel. Tiles are
+//! small because a field's forward pass keeps its activations (a few kB per sample of a NeuS field).
 
 use crate::config::RenderConfig;
 use crate::renderer::Renderer;
@@ -12,8 +13,8 @@ use neuroom_core::pose::Pose;
 use neuroom_field::Field;
 use rayon::prelude::*;
 
-/// Rows per rayon task.
-const TILE_ROWS: usize = 4;
+/// Pixels per rayon task (row-major runs).
+const TILE_PIXELS: usize = 512;
 
 /// Opacity above which a pixel has a depth.
 const DEPTH_OPACITY: f32 = 0.5;
@@ -31,16 +32,22 @@ pub fn render_image<F: Field, C: CameraModel + Sync>(
     let mut rgb = Image::filled(w, h, [0.0f32; 3]);
     let mut depth = Image::filled(w, h, 0.0f32);
     let mut mask = Image::filled(w, h, 0u16);
-    let tile = w as usize * TILE_ROWS;
     rgb.data
-        .par_chunks_mut(tile)
-        .zip(depth.data.par_chunks_mut(tile))
-        .zip(mask.data.par_chunks_mut(tile))
+        .par_chunks_mut(TILE_PIXELS)
+        .zip(depth.data.par_chunks_mut(TILE_PIXELS))
+        .zip(mask.data.par_chunks_mut(TILE_PIXELS))
         .enumerate()
         .for_each_init(
             || (Renderer::new(*config), Vec::new(), Vec::new()),
             |(renderer, rays, dirs), (k, ((c, d), m))| {
-                tile_rays(camera, camera_to_world, k * TILE_ROWS, c.len(), rays, dirs);
+                tile_rays(
+                    camera,
+                    camera_to_world,
+                    k * TILE_PIXELS,
+                    c.len(),
+                    rays,
+                    dirs,
+                );
                 renderer.render(scene, rays);
                 let ids = renderer.instances();
                 for (i, out) in renderer.outputs().iter().enumerate() {
@@ -56,11 +63,11 @@ pub fn render_image<F: Field, C: CameraModel + Sync>(
     (rgb, depth, mask)
 }
 
-/// World rays and camera-frame directions of `count` pixels from row `first_row` on, row by row.
+/// World rays and camera-frame directions of `count` pixels from linear pixel index `first` on.
 fn tile_rays<C: CameraModel>(
     camera: &C,
     camera_to_world: &Pose,
-    first_row: usize,
+    first: usize,
     count: usize,
     rays: &mut Vec<Ray>,
     dirs: &mut Vec<glam::DVec3>,
@@ -69,8 +76,8 @@ fn tile_rays<C: CameraModel>(
     rays.clear();
     dirs.clear();
     let origin = camera_to_world.translation.as_vec3();
-    for i in 0..count {
-        let (u, v) = (i % w, first_row + i / w);
+    for i in first..first + count {
+        let (u, v) = (i % w, i / w);
         let dir = camera.direction(DVec2::new(u as f64 + 0.5, v as f64 + 0.5));
         dirs.push(dir);
         rays.push(Ray::new(

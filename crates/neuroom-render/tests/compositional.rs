@@ -424,6 +424,16 @@ fn shared_neus_model_routes_light_code_gradients_per_instance() {
         ids.contains(&1) && ids.contains(&2),
         "both instances of the shared model render"
     );
+    let (_, _, mask) = render_image(
+        &scene,
+        &pinhole(24, 18),
+        &camera_pose(),
+        &RenderConfig::default(),
+    );
+    assert_eq!(
+        mask.data, ids,
+        "the tiled image of NeuS fields equals the batch"
+    );
     // Keep rays through the middle of an initial sphere (radius 0.24) or clear of both.
     let w = weights(rays.len(), |i| {
         let ray = &rays[i];
