@@ -34,7 +34,7 @@ MESH_SIZE_TOL = 0.03      # relative bounding-box extent error of a GT mesh
 OVERLAP_MAX = 0.25        # box interpenetration, fraction of the smaller box's volume
 ALPHA_DISAGREE_MAX = 0.02  # surface pixels (mask id or depth) with alpha 0; any is a warning
 MESH_CUTOFF = 0.01        # distances to the GT mesh are measured up to this
-MESH_MEDIAN_MAX = 0.005   # median distance of object pixels to their GT mesh
+MESH_MEDIAN_MAX = 0.003   # median distance of object pixels to their GT mesh (blender-lite README: 1–2.5 mm)
 MESH_MEDIAN_WARN = 0.001
 
 
