@@ -13,6 +13,7 @@ use crate::kernel::{Init, matmul, padded};
 use crate::real::Real;
 use crate::rng::SplitMix;
 use serde::{Deserialize, Serialize};
+use std::ops::Range;
 
 /// Pointwise non-linearity after a layer.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -104,6 +105,18 @@ impl<T: Real> MlpWorkspace<T> {
     pub fn output(&self) -> (&[T], usize) {
         let last = self.acts.len() - 1;
         (&self.acts[last], padded(self.widths[last]))
+    }
+
+    /// The first layer's pre-activation rows and their stride, for a caller of [`Mlp::forward_split`] to
+    /// fill before the call.
+    pub fn first_layer_mut(&mut self) -> (&mut [T], usize) {
+        (&mut self.acts[0], padded(self.widths[0]))
+    }
+
+    /// After [`Mlp::backward_split`]: the loss gradient of the first layer's pre-activation and its row
+    /// stride (what the rows left out of the input need for their own gradients).
+    pub fn first_layer_delta(&self) -> (&[T], usize) {
+        (&self.delta, padded(self.widths[0]))
     }
 }
 
@@ -209,11 +222,40 @@ impl Mlp {
         n: usize,
         ws: &mut MlpWorkspace<T>,
     ) {
+        self.forward_split(params, input, stride, n, ws, 0..0);
+    }
+
+    /// Forward pass in which the input columns `shared` are left out of `input` (whose rows then hold the
+    /// other columns, in order): the caller has already written, in [`MlpWorkspace::first_layer_mut`],
+    /// each row's bias plus the contribution of its `shared` columns. Inputs that repeat across many rows
+    /// (per-frame codes) are cheaper that way: their product is computed once per distinct value.
+    pub fn forward_split<T: Real>(
+        &self,
+        params: &[T],
+        input: &[T],
+        stride: usize,
+        n: usize,
+        ws: &mut MlpWorkspace<T>,
+        shared: Range<usize>,
+    ) {
         for l in 0..self.layers() {
-            let (i, o) = (self.dims[l], self.dims[l + 1]);
+            let (mut i, o) = (self.dims[l], self.dims[l + 1]);
             let op = padded(o);
-            pack_weights(&params[self.offsets[l]..], i, o, &mut ws.packed);
+            let skip = if l == 0 { shared.clone() } else { 0..0 };
+            pack_weights(
+                &params[self.offsets[l]..],
+                i,
+                o,
+                skip.clone(),
+                &mut ws.packed,
+            );
+            i -= skip.len();
             let (w, b) = ws.packed.split_at(i * op);
+            let init = if skip.is_empty() {
+                Init::Bias(&b[..op])
+            } else {
+                Init::Accumulate
+            };
             let (before, after) = ws.acts.split_at_mut(l);
             let (x, xs) = if l == 0 {
                 (input, stride)
@@ -221,7 +263,7 @@ impl Mlp {
                 (&before[l - 1][..], padded(i))
             };
             let y = &mut after[0][..n * op];
-            matmul(n, o, i, x, xs, 1, w, op, y, op, Init::Bias(&b[..op]));
+            matmul(n, o, i, x, xs, 1, w, op, y, op, init);
             let act = self.activation(l);
             if act != Activation::None {
                 for row in y.chunks_exact_mut(op) {
@@ -261,8 +303,26 @@ impl Mlp {
         n: usize,
         ws: &mut MlpWorkspace<T>,
         d_out: (&[T], usize),
+        grads: Option<&mut [T]>,
+        d_input: Option<(&mut [T], usize)>,
+    ) {
+        self.backward_split(params, input, n, ws, d_out, grads, d_input, 0..0);
+    }
+
+    /// Backward pass after [`Mlp::forward_split`] with the same `shared` columns: the first layer's weight
+    /// gradient is added for the other rows only, `d_input` may ask for columns before `shared` only, and
+    /// [`MlpWorkspace::first_layer_delta`] then holds what the caller needs for the `shared` rows.
+    #[allow(clippy::too_many_arguments)] // as `backward`, plus the split
+    pub fn backward_split<T: Real>(
+        &self,
+        params: &[T],
+        input: (&[T], usize),
+        n: usize,
+        ws: &mut MlpWorkspace<T>,
+        d_out: (&[T], usize),
         mut grads: Option<&mut [T]>,
         mut d_input: Option<(&mut [T], usize)>,
+        shared: Range<usize>,
     ) {
         let last = self.layers() - 1;
         let (out_w, dp) = (self.dims[last + 1], padded(self.dims[last + 1]));
@@ -285,8 +345,36 @@ impl Mlp {
             let (wo, bo) = (self.offsets[l], self.offsets[l] + i * o);
             if let Some(grads) = grads.as_deref_mut() {
                 let (gw, gb) = grads[wo..bo + o].split_at_mut(i * o);
-                // dW += Xᵀ · Δ
-                matmul(i, o, n, x, 1, xs, delta, op, gw, o, Init::Accumulate);
+                // dW += Xᵀ · Δ, for the weight rows before and after the shared ones.
+                let skip = if l == 0 { shared.clone() } else { i..i };
+                matmul(
+                    skip.start,
+                    o,
+                    n,
+                    x,
+                    1,
+                    xs,
+                    delta,
+                    op,
+                    gw,
+                    o,
+                    Init::Accumulate,
+                );
+                let (after, gw_after) = (i - skip.end, &mut gw[skip.end * o..]);
+                let x_after = &x[skip.start..];
+                matmul(
+                    after,
+                    o,
+                    n,
+                    x_after,
+                    1,
+                    xs,
+                    delta,
+                    op,
+                    gw_after,
+                    o,
+                    Init::Accumulate,
+                );
                 for row in delta.chunks_exact(op) {
                     for (b, d) in gb.iter_mut().zip(row) {
                         *b += *d;
@@ -307,6 +395,10 @@ impl Mlp {
                 }
                 std::mem::swap(&mut ws.delta, &mut ws.delta_prev);
             } else if let Some((buf, cols)) = d_input.take() {
+                assert!(
+                    shared.is_empty() || cols <= shared.start,
+                    "backward_split: input gradient of shared columns"
+                );
                 pack_transposed(&params[wo..bo], i, o, cols, &mut ws.packed);
                 let cp = padded(cols);
                 matmul(
@@ -327,11 +419,12 @@ impl Mlp {
     }
 }
 
-/// Copies a layer's `i × o` weights and its bias (the `o` values after them) into `dst` as `i + 1` rows
-/// of `padded(o)` values, zero-filled beyond `o`.
-fn pack_weights<T: Real>(params: &[T], i: usize, o: usize, dst: &mut [T]) {
+/// Copies a layer's `i × o` weights, except rows `skip`, and its bias (the `o` values after them) into
+/// `dst` as rows of `padded(o)` values, zero-filled beyond `o`.
+fn pack_weights<T: Real>(params: &[T], i: usize, o: usize, skip: Range<usize>, dst: &mut [T]) {
     let op = padded(o);
-    for (r, row) in dst[..(i + 1) * op].chunks_exact_mut(op).enumerate() {
+    let rows = (0..skip.start).chain(skip.end..=i);
+    for (r, row) in rows.zip(dst.chunks_exact_mut(op)) {
         row[..o].copy_from_slice(&params[r * o..(r + 1) * o]);
         row[o..].fill(T::ZERO);
     }

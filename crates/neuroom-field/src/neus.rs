@@ -245,6 +245,7 @@ pub struct Workspace<T> {
     d_color_in: Vec<T>,
     rgb: Vec<T>,
     pos_acc: Vec<T>,
+    code_sum: Vec<T>,
 }
 
 impl<T: Real> Workspace<T> {
@@ -411,7 +412,7 @@ impl<T: Real> NeusField<T> {
             sdf_in: vec![T::ZERO; CHUNK * si],
             jac: vec![T::ZERO; CHUNK * self.config.hash.output_dim() * 3],
             sdf_ws: self.sdf_mlp.workspace(CHUNK),
-            color_in: vec![T::ZERO; CHUNK * ci],
+            color_in: vec![T::ZERO; CHUNK * (ci - 2 * self.config.code_dim)],
             color_ws: self.color_mlp.workspace(CHUNK),
             sdf: vec![T::ZERO; CHUNK],
             gradient: vec![[T::ZERO; 3]; CHUNK],
@@ -419,7 +420,8 @@ impl<T: Real> NeusField<T> {
             d_out: vec![T::ZERO; CHUNK * so],
             d_sdf_in: vec![T::ZERO; CHUNK * si],
             d_enc: vec![T::ZERO; CHUNK * self.config.hash.output_dim()],
-            d_color_in: vec![T::ZERO; CHUNK * ci],
+            d_color_in: vec![T::ZERO; CHUNK * self.config.geometry_features],
+            code_sum: vec![T::ZERO; self.color_mlp.config().hidden.first().map_or(3, |h| *h)],
             rgb: vec![T::ZERO; CHUNK * 3],
             pos_acc: vec![T::ZERO; CHUNK * 3],
         }
@@ -429,9 +431,13 @@ impl<T: Real> NeusField<T> {
         self.sdf_mlp.config().input
     }
 
-    /// Columns of the colour input that need a gradient: geometry feature, appearance and light codes.
-    fn color_grad_cols(&self) -> usize {
-        self.config.geometry_features + 2 * self.config.code_dim
+    /// Input columns of the colour network that hold the appearance and light codes. They are left out of
+    /// the per-point product ([`Mlp::forward_split`]): a code's contribution to the first layer is computed
+    /// once per run of points sharing it, and its gradient summed over the run before the product with the
+    /// weights (exact, and it takes a third of the colour network's first-layer work away).
+    fn code_columns(&self) -> std::ops::Range<usize> {
+        let g = self.config.geometry_features;
+        g..g + 2 * self.config.code_dim
     }
 
     /// The analytic base SDF and its gradient at `x`.
@@ -609,41 +615,114 @@ impl<T: Real> NeusField<T> {
         }
     }
 
-    /// Colour network forward; input row `[feature, appearance, light, SH(dir), normal]`.
+    /// Colour network forward. Input row `[feature, appearance, light, SH(dir), normal]`; the codes enter
+    /// through the first layer's pre-activation (see [`NeusField::code_columns`]), the rest row by row.
     fn color_forward(&self, dirs: &[[T; 3]], codes: &CodeSet, ws: &mut Workspace<T>) {
         let n = ws.n;
-        let (g, cd) = (self.config.geometry_features, self.config.code_dim);
-        let ci = self.color_mlp.config().input;
+        let g = self.config.geometry_features;
+        let ci = self.color_mlp.config().input - self.code_columns().len();
         let so = 1 + g;
         let (feat, fs) = ws.sdf_ws.output();
-        let (app, light) = (
-            self.params.get(Group::Appearance),
-            self.params.get(Group::Light),
-        );
         for p in 0..n {
             let row = &mut ws.color_in[p * ci..(p + 1) * ci];
             row[..g].copy_from_slice(&feat[p * fs + 1..p * fs + so]);
-            let (a, l) = (codes.appearance.get(p), codes.light.get(p));
-            row[g..g + cd].copy_from_slice(&app[a * cd..(a + 1) * cd]);
-            row[g + cd..g + 2 * cd].copy_from_slice(&light[l * cd..(l + 1) * cd]);
-            sh4(dirs[p], &mut row[g + 2 * cd..g + 2 * cd + SH_DIM]);
+            sh4(dirs[p], &mut row[g..g + SH_DIM]);
             let nv = ws.gradient[p];
             let len = (nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2])
                 .sqrt()
                 .max(T::from_f64(1e-12));
             for a in 0..3 {
-                row[g + 2 * cd + SH_DIM + a] = nv[a] / len;
+                row[g + SH_DIM + a] = nv[a] / len;
             }
         }
-        self.color_mlp.forward(
+        self.code_pre_activation(codes, ws);
+        self.color_mlp.forward_split(
             self.params.get(Group::ColorMlp),
             &ws.color_in,
+            ci,
             n,
             &mut ws.color_ws,
+            self.code_columns(),
         );
         let (rgb, rs) = ws.color_ws.output();
         for (p, dst) in ws.rgb[..n * 3].chunks_exact_mut(3).enumerate() {
             dst.copy_from_slice(&rgb[p * rs..p * rs + 3]);
+        }
+    }
+
+    /// Writes each point's colour first-layer start: bias + appearance code · W_a + light code · W_l,
+    /// recomputed only where the pair of codes changes from the previous point.
+    fn code_pre_activation(&self, codes: &CodeSet, ws: &mut Workspace<T>) {
+        let (w, o) = self.color_first_layer();
+        let (cols, cd) = (self.code_columns(), self.config.code_dim);
+        let (app, light) = (
+            self.params.get(Group::Appearance),
+            self.params.get(Group::Light),
+        );
+        let term = &mut ws.code_sum;
+        let (pre, ps) = ws.color_ws.first_layer_mut();
+        let mut last = None;
+        for p in 0..ws.n {
+            let key = (codes.appearance.get(p), codes.light.get(p));
+            if last != Some(key) {
+                let (a, l) = key;
+                term.copy_from_slice(&w[w.len() - o..]);
+                let rows = w[cols.start * o..cols.end * o].chunks_exact(o);
+                let code = app[a * cd..(a + 1) * cd]
+                    .iter()
+                    .chain(&light[l * cd..(l + 1) * cd]);
+                for (c, row) in code.zip(rows) {
+                    for (t, wv) in term.iter_mut().zip(row) {
+                        *t += *c * *wv;
+                    }
+                }
+                last = Some(key);
+            }
+            pre[p * ps..p * ps + o].copy_from_slice(term);
+        }
+    }
+
+    /// The colour network's first-layer weights (`[input][o]`, bias row after the last) and width `o`.
+    fn color_first_layer(&self) -> (&[T], usize) {
+        let c = self.color_mlp.config();
+        let o = c.hidden.first().copied().unwrap_or(c.output);
+        (&self.params.get(Group::ColorMlp)[..(c.input + 1) * o], o)
+    }
+
+    /// Gradients of the appearance and light codes and of their first-layer weight rows, from the first
+    /// layer's pre-activation gradient: summed over each run of points with the same code, then multiplied
+    /// by the weights once per run.
+    fn code_backward(&self, codes: &CodeSet, ws: &mut Workspace<T>, grads: &mut Params<T>) {
+        let (w, o) = self.color_first_layer();
+        let (cols, cd) = (self.code_columns(), self.config.code_dim);
+        let (delta, ds) = ws.color_ws.first_layer_delta();
+        let sum = &mut ws.code_sum;
+        for (which, group) in [(0, Group::Appearance), (1, Group::Light)] {
+            let rows = cols.start + which * cd;
+            let of = |p: usize| match which {
+                0 => codes.appearance.get(p),
+                _ => codes.light.get(p),
+            };
+            let mut p = 0;
+            while p < ws.n {
+                let c = of(p);
+                sum.fill(T::ZERO);
+                while p < ws.n && of(p) == c {
+                    add(sum, &delta[p * ds..p * ds + o]);
+                    p += 1;
+                }
+                let code = &self.params.get(group)[c * cd..(c + 1) * cd];
+                for (r, cv) in code.iter().enumerate() {
+                    let wr = (rows + r) * o;
+                    let gw = &mut grads.get_mut(Group::ColorMlp)[wr..wr + o];
+                    let mut dot = T::ZERO;
+                    for ((g, s), wv) in gw.iter_mut().zip(sum.iter()).zip(&w[wr..wr + o]) {
+                        *g += *cv * *s;
+                        dot += *wv * *s;
+                    }
+                    grads.get_mut(group)[c * cd + r] += dot;
+                }
+            }
         }
     }
 
@@ -662,7 +741,7 @@ impl<T: Real> NeusField<T> {
         d_points: Option<&mut [[T; 3]]>,
     ) {
         let n = ws.n;
-        let (g, cd) = (self.config.geometry_features, self.config.code_dim);
+        let g = self.config.geometry_features;
         let (si, so) = (self.sdf_in_dim(), 1 + g);
         ws.d_out[..n * so].fill(T::ZERO);
         for (p, d) in d_sdf[..n].iter().enumerate() {
@@ -674,31 +753,24 @@ impl<T: Real> NeusField<T> {
                 Some(Outputs::Full),
                 "backward_chunk: d_rgb needs a Full forward pass"
             );
-            let cols = self.color_grad_cols();
             let params = self.params.get(Group::ColorMlp);
+            let ci = self.color_mlp.config().input - self.code_columns().len();
             let gc = Some(&mut grads.groups[Group::ColorMlp as usize][..]);
-            self.color_mlp.backward(
+            self.color_mlp.backward_split(
                 params,
-                &ws.color_in,
+                (&ws.color_in, ci),
                 n,
                 &mut ws.color_ws,
-                d_rgb,
+                (d_rgb, 3),
                 gc,
-                Some((&mut ws.d_color_in, cols)),
+                Some((&mut ws.d_color_in, g)),
+                self.code_columns(),
             );
             for p in 0..n {
-                let row = &ws.d_color_in[p * cols..(p + 1) * cols];
-                ws.d_out[p * so + 1..(p + 1) * so].copy_from_slice(&row[..g]);
-                let (a, l) = (codes.appearance.get(p), codes.light.get(p));
-                add(
-                    &mut grads.get_mut(Group::Appearance)[a * cd..(a + 1) * cd],
-                    &row[g..g + cd],
-                );
-                add(
-                    &mut grads.get_mut(Group::Light)[l * cd..(l + 1) * cd],
-                    &row[g + cd..g + 2 * cd],
-                );
+                ws.d_out[p * so + 1..(p + 1) * so]
+                    .copy_from_slice(&ws.d_color_in[p * g..(p + 1) * g]);
             }
+            self.code_backward(codes, ws, grads);
         }
         let params = self.params.get(Group::SdfMlp);
         let gs = Some(&mut grads.groups[Group::SdfMlp as usize][..]);
