@@ -264,27 +264,38 @@ fn render_pixel(
     };
     let grid = (q.spp as f32).sqrt().ceil() as u32;
     let (mut sum, mut covered) = (Vec3::ZERO, 0u32);
+    let mut sample = |d: Vec3, index: u32, rng: &mut Pcg32| -> Option<Vec3> {
+        rays += 1;
+        let hit = scene.intersect(origin, d, f32::INFINITY);
+        let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+        if let Some(l) = rig.visible_emitter(origin, d, t_max) {
+            return Some(l);
+        }
+        let surface = scene.surface(&hit?, origin, d);
+        let strata = Strata {
+            index: index * q.ao_rays,
+            count: q.spp * q.ao_rays,
+        };
+        let (l, n) = shade(scene, rig, &surface, -d, q.ao_rays, strata, rng);
+        rays += n;
+        Some(l)
+    };
     for s in 0..q.spp {
         let jitter = DVec2::new(
             ((s % grid) as f64 + rng.random::<f64>()) / grid as f64,
             ((s / grid) as f64 + rng.random::<f64>()) / grid as f64,
         );
         let (d, _) = world_dir(DVec2::new(u as f64, v as f64) + jitter);
-        rays += 1;
-        let hit = scene.intersect(origin, d, f32::INFINITY);
-        let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-        if let Some(l) = rig.visible_emitter(origin, d, t_max) {
+        if let Some(l) = sample(d, s, &mut rng) {
             sum += l;
             covered += 1;
-        } else if let Some(hit) = hit {
-            let surface = scene.surface(&hit, origin, d);
-            let strata = Strata {
-                index: s * q.ao_rays,
-                count: q.spp * q.ao_rays,
-            };
-            let (l, n) = shade(scene, rig, &surface, -d, q.ao_rays, strata, &mut rng);
+        }
+    }
+    // Alpha 0 means "no surface" (FORMAT.md): where the pixel centre — which decides depth and mask — hits
+    // a surface that every jittered sample missed, shade the centre so the pixel keeps a non-zero alpha.
+    if covered == 0 && depth > 0.0 {
+        if let Some(l) = sample(centre_dir, 0, &mut rng) {
             sum += l;
-            rays += n;
             covered += 1;
         }
     }
