@@ -8,7 +8,7 @@ use crate::eval::{LightCodeCheck, evaluate, extract_mesh, mesh_chamfer};
 use crate::mesh_extract::Chamfer;
 use crate::progress::Progress;
 use crate::room::{ModelSpec, TrainError, load_model_data, model_specs, with_threads};
-use crate::trainer::{ModelKind, Trainer};
+use crate::trainer::{ModelKind, StepProfile, Trainer};
 use neuroom_core::formats::read_room;
 use neuroom_core::mesh::read_ply;
 use serde::Serialize;
@@ -53,6 +53,8 @@ pub struct ModelBenchReport {
     pub light_codes: Vec<LightCodeCheck>,
     /// Learned NeuS sharpness.
     pub inv_s: f32,
+    /// Mean milliseconds per step, by phase.
+    pub step_profile_ms: StepProfile,
 }
 
 /// Trains and evaluates the model of object `object` (by name) of the room at `room_dir`.
@@ -140,6 +142,21 @@ fn bench_model(
             chamfer_m,
             light_codes: eval.light_codes,
             inv_s: trainer.field.inv_s(),
+            step_profile_ms: mean_ms(&trainer.state.profile),
         })
     })
+}
+
+/// Per-step means of a profile, in milliseconds.
+fn mean_ms(p: &StepProfile) -> StepProfile {
+    let k = 1e3 / p.steps.max(1) as f64;
+    StepProfile {
+        sample: p.sample * k,
+        forward: p.forward * k,
+        render: p.render * k,
+        backward: p.backward * k,
+        eikonal: p.eikonal * k,
+        adam: p.adam * k,
+        steps: p.steps,
+    }
 }

@@ -26,8 +26,8 @@ pub struct ModelBudget {
     pub finest_resolution: usize,
     /// Near-surface SDF band half-width, as a fraction of the box diagonal.
     pub sdf_band: f32,
-    /// Smallest shell half-width, as a fraction of the box diagonal (the shell is `5 / inv_s` wide
-    /// otherwise, capped at 10 % of the diagonal).
+    /// Smallest shell half-width, as a fraction of the box diagonal (the shell is `5 / (inv_s · |n · d|)`
+    /// wide otherwise — wider for grazing rays — capped at 10 % of the diagonal).
     pub shell_min: f32,
 }
 
@@ -74,9 +74,9 @@ pub struct TrainConfig {
 }
 
 impl Default for TrainConfig {
-    /// Objects: 2 000 steps or 5 minutes, 2 048 rays × (24 shell + 8 uniform) samples, T = 2^15, finest
+    /// Objects: 2 000 steps or 5 minutes, 2 048 rays × (12 shell + 4 uniform) samples, T = 2^15, finest
     /// 512. Room: 3 000 steps or 10 minutes, 2 048 rays, T = 2^18, finest 1 024. Adam at 1e-2 (tables,
-    /// codes), 5e-3 (networks), 1e-3 (variance), 20 warm-up steps, then linear decay to 3 %; 4 levels at
+    /// codes), 5e-3 (networks), 1e-2 (variance), 20 warm-up steps, then linear decay to 3 %; 4 levels at
     /// first and one more every 40 steps; every 10th frame held out; the vendored HDR maps for augmentation,
     /// 30 % of surface rays re-lit.
     fn default() -> Self {
@@ -87,14 +87,14 @@ impl Default for TrainConfig {
         lr[Group::Appearance as usize] = 1e-2;
         lr[Group::Light as usize] = 1e-2;
         lr[Group::Object as usize] = 1e-2;
-        lr[Group::Variance as usize] = 1e-3;
+        lr[Group::Variance as usize] = 1e-2;
         Self {
             object: ModelBudget {
                 steps: 2000,
                 time_budget_s: Some(300.0),
                 batch_rays: 2048,
-                shell_samples: 24,
-                uniform_samples: 8,
+                shell_samples: 12,
+                uniform_samples: 4,
                 log2_table: 15,
                 finest_resolution: 512,
                 sdf_band: 0.02,
@@ -113,7 +113,7 @@ impl Default for TrainConfig {
             },
             empty_fraction: 0.25,
             weights: LossWeights::default(),
-            eikonal_stride: 16,
+            eikonal_stride: 32,
             learning_rates: lr,
             warmup_steps: 20,
             decay_power: 1.0,

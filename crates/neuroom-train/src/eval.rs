@@ -26,19 +26,23 @@ pub struct RenderOptions {
     pub coarse: usize,
     /// Samples in the shell around it.
     pub fine: usize,
-    /// Smallest shell half-width (metres); it is `5 / inv_s` otherwise.
+    /// Smallest shell half-width (metres); it is `5 / (inv_s · slope)` otherwise, with the SDF's slope
+    /// along the ray at the crossing (grazing rays get wider shells).
     pub min_shell: f32,
+    /// Largest shell half-width (metres).
+    pub max_shell: f32,
     /// Nearest distance from the camera considered.
     pub near: f32,
 }
 
 impl RenderOptions {
-    /// Defaults for a box of diagonal `diag`: 128 coarse samples, 32 fine, shell at least 0.5 % of it.
+    /// Defaults for a box of diagonal `diag`: 96 coarse samples, 32 fine, shell 0.5 % to 10 % of it.
     pub fn for_diagonal(diag: f32) -> Self {
         Self {
-            coarse: 128,
+            coarse: 96,
             fine: 32,
             min_shell: 0.005 * diag,
+            max_shell: 0.1 * diag,
             near: 0.02,
         }
     }
@@ -58,13 +62,15 @@ pub struct Rendered {
 /// Rays rendered per batch.
 const RAYS_PER_BATCH: usize = 4096;
 
-/// Renders every pixel of `view` from `field` (model frame) inside `bounds` with light code `light`.
+/// Renders the pixels of `view` that `wanted` selects (by row-major index; the others stay black) from
+/// `field` (model frame) inside `bounds` with light code `light`.
 pub fn render_view(
     field: &NeusField<f32>,
     view: &View,
     bounds: &Aabb,
     light: u32,
     options: &RenderOptions,
+    wanted: &dyn Fn(usize) -> bool,
 ) -> Rendered {
     let n = view.rgb.len();
     let mut out = Rendered {
@@ -76,6 +82,7 @@ pub fn render_view(
     for start in (0..n).step_by(RAYS_PER_BATCH) {
         let end = (start + RAYS_PER_BATCH).min(n);
         let rays: Vec<(usize, Vec3, f32, f32)> = (start..end)
+            .filter(|&i| wanted(i))
             .filter_map(|i| {
                 let d = view.direction(i);
                 let (near, far) = bounds.intersect(view.origin(), d)?;
@@ -97,14 +104,24 @@ pub fn render_view(
     out
 }
 
-/// First zero crossing of the SDF along each ray, from `options.coarse` SDF samples: `(pixel, dir, t)`.
+/// Where a ray first crosses the zero level set.
+#[derive(Clone, Copy, Debug)]
+struct Hit {
+    pixel: usize,
+    dir: Vec3,
+    t: f32,
+    /// `−∂SDF/∂t` at the crossing, from the coarse samples.
+    slope: f32,
+}
+
+/// First zero crossing of the SDF along each ray, from `options.coarse` SDF samples.
 fn find_surfaces(
     field: &NeusField<f32>,
     o: Vec3,
     rays: &[(usize, Vec3, f32, f32)],
     options: &RenderOptions,
     tape: &mut Tape<f32>,
-) -> Vec<(usize, Vec3, f32)> {
+) -> Vec<Hit> {
     let k = options.coarse.max(2);
     let mut points = Vec::with_capacity(rays.len() * k);
     let mut ts = Vec::new();
@@ -122,7 +139,13 @@ fn find_surfaces(
             let step = (far - near) / (k - 1) as f32;
             let j = (0..k - 1).find(|&j| s[j] > 0.0 && s[j + 1] <= 0.0)?;
             let t = near + step * (j as f32 + s[j] / (s[j] - s[j + 1]));
-            Some((i, d, t))
+            let slope = (s[j] - s[j + 1]) / step;
+            Some(Hit {
+                pixel: i,
+                dir: d,
+                t,
+                slope,
+            })
         })
         .collect()
 }
@@ -131,7 +154,7 @@ fn find_surfaces(
 fn shade(
     field: &NeusField<f32>,
     o: Vec3,
-    hits: &[(usize, Vec3, f32)],
+    hits: &[Hit],
     light: u32,
     options: &RenderOptions,
     tape: &mut Tape<f32>,
@@ -139,10 +162,13 @@ fn shade(
 ) {
     let k = options.fine.max(2);
     let inv_s = field.inv_s();
-    let w = (5.0 / inv_s).max(options.min_shell);
     let (mut points, mut dirs, mut all_t) = (Vec::new(), Vec::new(), Vec::new());
     let mut ts = Vec::new();
-    for &(_, d, t) in hits {
+    for &Hit {
+        dir: d, t, slope, ..
+    } in hits
+    {
+        let w = (5.0 / (inv_s * slope.max(0.05))).clamp(options.min_shell, options.max_shell);
         uniform((t - w).max(options.near), t + w, k, &mut ts);
         all_t.extend_from_slice(&ts);
         points.extend(ts.iter().map(|t| (o + *t * d).to_array()));
@@ -159,7 +185,7 @@ fn shade(
     tape.copy_rgb(&mut rgb);
     let (rgb3, _) = rgb.as_chunks::<3>();
     let mut ray_tape = RayTape::default();
-    for (r, &(i, _, _)) in hits.iter().enumerate() {
+    for (r, &Hit { pixel: i, .. }) in hits.iter().enumerate() {
         let s = r * k..(r + 1) * k;
         let res = render_ray(
             &all_t[s.clone()],
@@ -299,7 +325,8 @@ pub fn evaluate(
     let (mut total, mut errors, mut hit, mut pixels) =
         (ViewScore::default(), Vec::new(), 0usize, 0usize);
     for view in views {
-        let r = render_view(field, view, bounds, view.light as u32, &options);
+        let surface = |i: usize| view.class[i] == PixelClass::Surface;
+        let r = render_view(field, view, bounds, view.light as u32, &options, &surface);
         let s = color_error(view, &r.rgb, &view.rgb);
         total.squared_error += s.squared_error;
         total.count += s.count;
@@ -313,9 +340,10 @@ pub fn evaluate(
     let light_codes = match views.first() {
         Some(view) => (0..augmentation.len())
             .map(|k| {
+                let surface = |i: usize| view.class[i] == PixelClass::Surface;
                 let target = relit_target(view, augmentation, k);
                 let score = |code: usize| {
-                    let r = render_view(field, view, bounds, code as u32, &options);
+                    let r = render_view(field, view, bounds, code as u32, &options, &surface);
                     let s = color_error(view, &r.rgb, &target);
                     psnr_of(s.squared_error / s.count.max(1) as f64)
                 };

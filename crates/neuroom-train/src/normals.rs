@@ -3,8 +3,9 @@
 //! Each valid pixel is back-projected to its camera-frame point `P(u, v)`; the tangents are finite
 //! differences to the neighbours, central where both neighbours are valid and on the same surface, one-sided
 //! otherwise, and the normal is their cross product, turned to face the camera (`n · P < 0`). Two pixels lie
-//! on the same surface when their z-depths differ by less than [`MAX_RELATIVE_STEP`] of the depth, so
-//! silhouettes do not tilt normals. Pixels without a usable neighbour pair get the normal facing straight
+//! on the same surface when their z-depths differ by less than [`MAX_RELATIVE_STEP`] of the depth or
+//! than [`MAX_SLOPE`] pixel footprints (`z / f`), whichever is larger, so silhouettes do not tilt normals
+//! while steep but continuous surfaces keep theirs. Pixels without a usable neighbour pair get the normal facing straight
 //! back along the ray.
 
 use glam::{DVec2, DVec3};
@@ -12,6 +13,9 @@ use neuroom_core::camera::{CameraModel, Pinhole};
 
 /// Largest relative z-depth step between neighbours taken to be on the same surface.
 pub const MAX_RELATIVE_STEP: f64 = 0.03;
+
+/// Largest z-depth step between neighbours on the same surface, in pixel footprints (a slope of ≈ 79°).
+pub const MAX_SLOPE: f64 = 5.0;
 
 /// Unit normals (camera frame, facing the camera) of the pixels where `valid` holds and `z > 0`; zero
 /// elsewhere. `z` is the pinhole z-depth in metres, row-major.
@@ -22,8 +26,11 @@ pub fn normals_from_depth(camera: &Pinhole, z: &[f32], valid: &[bool]) -> Vec<[f
         let px = DVec2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
         camera.unproject(px, z[i] as f64)
     };
-    let same =
-        |i: usize, j: usize| ok(j) && (z[i] - z[j]).abs() as f64 <= MAX_RELATIVE_STEP * z[i] as f64;
+    let footprint = 1.0 / camera.fx.min(camera.fy);
+    let same = |i: usize, j: usize| {
+        let limit = z[i] as f64 * MAX_RELATIVE_STEP.max(MAX_SLOPE * footprint);
+        ok(j) && ((z[i] - z[j]).abs() as f64) <= limit
+    };
     let tangent = |i: usize, prev: Option<usize>, next: Option<usize>| -> Option<DVec3> {
         let p = prev.filter(|&j| same(i, j));
         let q = next.filter(|&j| same(i, j));

@@ -47,6 +47,28 @@ pub struct TrainState {
     pub elapsed_s: f64,
     /// Loss of the last step.
     pub last: LossParts,
+    /// Seconds per phase, summed over the steps of this session (not restored on resume).
+    #[serde(skip)]
+    pub profile: StepProfile,
+}
+
+/// Where a step's time goes, summed over steps (seconds).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepProfile {
+    /// Drawing rays and samples.
+    pub sample: f64,
+    /// Field forward pass.
+    pub forward: f64,
+    /// Rendering and losses.
+    pub render: f64,
+    /// Field backward pass.
+    pub backward: f64,
+    /// Eikonal term (its own forward and backward).
+    pub eikonal: f64,
+    /// Adam step and zeroing the gradients.
+    pub adam: f64,
+    /// Steps summed.
+    pub steps: u64,
 }
 
 /// What kind of model is trained (changes sampling near the camera and the geometric initialisation).
@@ -173,6 +195,7 @@ impl<'a> Trainer<'a> {
             rng: Pcg32::new(config.seed, 0x7A1E),
             elapsed_s: 0.0,
             last: LossParts::default(),
+            profile: StepProfile::default(),
         };
         Self::assemble(data, augmentation, config, kind, field, adam, state, lights)
     }
@@ -280,10 +303,13 @@ impl<'a> Trainer<'a> {
     /// One optimisation step; returns its loss.
     pub fn step(&mut self) -> LossParts {
         let start = Instant::now();
+        let mut lap = Lap(Instant::now());
         let levels = self.config.start_levels
             + (self.state.step / self.config.steps_per_level.max(1)) as usize;
         self.field.set_active_levels(levels);
         self.draw_batch();
+        let mut prof = self.state.profile;
+        prof.sample += lap.next();
         let b = &self.batch;
         let codes = CodeSet {
             appearance: Codes::PerPoint(&b.appearance),
@@ -297,8 +323,10 @@ impl<'a> Trainer<'a> {
         self.batch.rgb.resize(3 * n, 0.0);
         self.tape.copy_sdf(&mut self.batch.sdf);
         self.tape.copy_rgb(&mut self.batch.rgb);
+        prof.forward += lap.next();
         let (mut parts, d_inv_s) = self.ray_losses();
         parts.sdf = self.sdf_losses();
+        prof.render += lap.next();
         let b = &self.batch;
         let codes = CodeSet {
             appearance: Codes::PerPoint(&b.appearance),
@@ -314,11 +342,16 @@ impl<'a> Trainer<'a> {
             None,
         );
         self.field.backward_inv_s(d_inv_s, &mut self.grads);
+        prof.backward += lap.next();
         parts.eikonal = self.eikonal();
+        prof.eikonal += lap.next();
         let factor = self.schedule().factor(self.state.step);
         let lr: [f32; NUM_GROUPS] = self.config.learning_rates.map(|r| r * factor);
         self.adam.step(&mut self.field.params, &self.grads, &lr);
         self.grads.fill_zero();
+        prof.adam += lap.next();
+        prof.steps += 1;
+        self.state.profile = prof;
         self.state.step += 1;
         self.state.elapsed_s += start.elapsed().as_secs_f64();
         self.state.last = parts;
@@ -364,7 +397,7 @@ impl<'a> Trainer<'a> {
         b.zones.clear();
         b.offsets.push(0);
         let inv_s = self.field.inv_s();
-        let shell = (5.0 / inv_s).clamp(self.budget.shell_min * self.diag, 0.1 * self.diag);
+        let (shell_min, shell_max) = (self.budget.shell_min * self.diag, 0.1 * self.diag);
         let band = self.budget.sdf_band * self.diag;
         let mut samples = Vec::new();
         let rays = &self.data.rays;
@@ -391,6 +424,14 @@ impl<'a> Trainer<'a> {
                 continue;
             }
             let distance = (rays.distance[i] > 0.0).then_some(rays.distance[i]);
+            let normal = rays.normal(i);
+            // |n · d|: a grazing ray crosses the NeuS transition over a longer stretch.
+            let cos = if normal == Vec3::ZERO {
+                1.0
+            } else {
+                normal.dot(d).abs().max(0.1)
+            };
+            let shell = (5.0 / (inv_s * cos)).clamp(shell_min, shell_max);
             let mut u = || rng.next_f32();
             match distance {
                 Some(dist) if !pick_empty => depth_guided(
@@ -414,7 +455,6 @@ impl<'a> Trainer<'a> {
             let frame = rays.frame[i] as usize;
             let mut light = self.data.frame_light[frame] as u32;
             let mut rgb = rays.color(i);
-            let normal = rays.normal(i);
             if !pick_empty
                 && !self.augmentation.is_empty()
                 && rng.next_f32() < self.config.augment_fraction
@@ -428,11 +468,6 @@ impl<'a> Trainer<'a> {
                 frame as u32
             } else {
                 0
-            };
-            let cos = if normal == Vec3::ZERO {
-                1.0
-            } else {
-                normal.dot(d).abs().max(0.1)
             };
             for &t in &samples {
                 b.t.push(t);
@@ -584,6 +619,18 @@ impl<'a> Trainer<'a> {
             "light_codes": self.lights,
             "kind": self.kind,
         })
+    }
+}
+
+/// A stopwatch returning the seconds since its last reading.
+struct Lap(Instant);
+
+impl Lap {
+    fn next(&mut self) -> f64 {
+        let now = Instant::now();
+        let dt = (now - self.0).as_secs_f64();
+        self.0 = now;
+        dt
     }
 }
 

@@ -1,0 +1,147 @@
+//! Short trainings on analytic scenes: the reached figures, exact resumption, and a whole room with its
+//! model folder.
+
+mod common;
+
+use glam::Vec3;
+use neuroom_core::formats::read_capture;
+use neuroom_train::augment::Augmentation;
+use neuroom_train::dataset::{Aabb, Dataset, LoadOptions, Role};
+use neuroom_train::eval::{evaluate, extract_mesh, mesh_chamfer};
+use neuroom_train::mesh_extract::{Grid, extract_surface};
+use neuroom_train::progress::Quiet;
+use neuroom_train::room::with_threads;
+use neuroom_train::{ModelKind, TrainConfig, Trainer, load_room_models, train_room};
+
+/// A fast configuration for tests: small batches and tables, no time budget, no augmentation.
+fn quick_config(steps: u64) -> TrainConfig {
+    let mut c = TrainConfig::default();
+    for b in [&mut c.object, &mut c.background] {
+        b.steps = steps;
+        b.time_budget_s = None;
+        b.batch_rays = 512;
+        b.log2_table = 14;
+        b.finest_resolution = 256;
+    }
+    c.env_maps.clear();
+    c.holdout = 5;
+    c.checkpoint_every = 0;
+    c
+}
+
+fn ball_data(dir: &std::path::Path) -> Dataset {
+    let cam = neuroom_core::camera::Pinhole::new(48, 48, 40.0, 40.0, 24.0, 24.0);
+    common::write_analytic_capture(dir, &common::ball(0.15), &common::orbit(20, 0.7), cam, 1);
+    let capture = read_capture(dir).unwrap();
+    let role = Role::Object {
+        ids: vec![1],
+        capture_to_object: neuroom_core::Pose::IDENTITY,
+    };
+    Dataset::load(
+        &capture,
+        &role,
+        &LoadOptions {
+            holdout: 5,
+            bounds: None,
+        },
+    )
+    .unwrap()
+}
+
+const BALL_BOX: Aabb = Aabb {
+    min: [-0.15; 3],
+    max: [0.15; 3],
+};
+
+#[test]
+fn a_ball_is_learned_to_stated_psnr_depth_and_chamfer() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = ball_data(dir.path());
+    let config = quick_config(250);
+    let aug = Augmentation::default();
+    let start = std::time::Instant::now();
+    let mut trainer = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
+    trainer.run("ball", None, &Quiet).unwrap();
+    let fc = trainer.field.config();
+    let bounds = Aabb {
+        min: fc.bounds_min,
+        max: fc.bounds_max,
+    };
+    let report = evaluate(&trainer.field, &data.held_out, &bounds, &aug, 1);
+    let learned = extract_mesh(&trainer.field, &bounds, 64);
+    let truth = extract_surface(
+        &Grid::over(Vec3::splat(-0.2), Vec3::splat(0.2), 64),
+        &|p: &[Vec3]| p.iter().map(|x| x.length() - 0.15).collect(),
+    );
+    let chamfer = mesh_chamfer(&learned, &truth, 10_000);
+    eprintln!(
+        "ball: {report:?}, chamfer {chamfer:?}, batch PSNR {:.2}, inv_s {}, {:.1} s",
+        trainer.state.last.psnr(),
+        trainer.field.inv_s(),
+        start.elapsed().as_secs_f64()
+    );
+    assert!(report.psnr_db > 24.0, "{report:?}");
+    assert!(report.median_depth_error_m < 0.003, "{report:?}");
+    assert!(report.coverage > 0.98, "{report:?}");
+    assert!(chamfer.mean < 0.005, "{chamfer:?}");
+}
+
+#[test]
+fn resuming_from_a_checkpoint_continues_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = ball_data(&dir.path().join("capture"));
+    let mut config = quick_config(20);
+    config.object.batch_rays = 128;
+    let aug = Augmentation::default();
+    with_threads(1, || {
+        let mut straight = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
+        straight.run("straight", None, &Quiet).unwrap();
+
+        let ckpt = dir.path().join("ckpt");
+        let mut first = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
+        for _ in 0..10 {
+            first.step();
+        }
+        first.save(&ckpt).unwrap();
+        drop(first);
+        let mut second = Trainer::resume(&data, &aug, &config, ModelKind::Object, &ckpt).unwrap();
+        assert_eq!(second.state.step, 10);
+        second.run("second", None, &Quiet).unwrap();
+        assert_eq!(second.state.step, 20);
+        assert_eq!(second.state.rng, straight.state.rng);
+        assert!(
+            second.field.params == straight.field.params,
+            "parameters differ after resuming"
+        );
+    });
+}
+
+#[test]
+fn a_room_trains_into_a_model_folder_that_loads_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = dir.path().join("room");
+    common::write_tiny_room(&room);
+    let out = dir.path().join("models");
+    let mut config = quick_config(30);
+    config.env_maps = neuroom_train::augment::vendored_env_maps();
+    config.holdout = 6;
+    let summary = train_room(&room, &out, &config, &Quiet).unwrap();
+    assert_eq!(
+        summary.trained,
+        vec!["background".to_string(), "ball".to_string()]
+    );
+    assert!(summary.manifest.complete);
+    let models = load_room_models(&summary.dir).unwrap();
+    assert_eq!(models.fields.len(), 2);
+    let (entry, field) = models.object(1).unwrap();
+    assert_eq!(entry.objects, vec!["ball".to_string()]);
+    assert_eq!(entry.light_codes.names.len(), 1 + config.env_maps.len());
+    assert_eq!(field.config().light_codes, entry.light_codes.names.len());
+    assert!(entry.stats.eval.is_some() && entry.stats.steps == 30);
+    assert!(models.background().is_some());
+    assert!(!summary.dir.join("background/checkpoint").exists());
+    // A second call finds every model finished.
+    let again = train_room(&room, &out, &config, &Quiet).unwrap();
+    assert!(again.trained.is_empty());
+    assert_eq!(again.manifest.models.len(), 2);
+}
