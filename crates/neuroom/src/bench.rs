@@ -92,3 +92,33 @@ pub fn describe_synth(r: &neuroom_synth::BenchReport) -> String {
         r.seconds
     )
 }
+
+/// The render benchmark (the paper's Table 3) with `iterations` timed iterations per row.
+pub fn render(iterations: usize) -> anyhow::Result<neuroom_render::bench::RenderBenchReport> {
+    anyhow::ensure!(iterations >= 1, "--iterations must be at least 1");
+    let config = neuroom_render::bench::RenderBenchConfig {
+        iterations,
+        ..Default::default()
+    };
+    Ok(neuroom_render::bench::bench_render(&config))
+}
+
+/// The render benchmark as a text table.
+pub fn describe_render(r: &neuroom_render::bench::RenderBenchReport) -> String {
+    let mut out = format!(
+        "render, {} threads: per iteration (plan + forward + backward)\n{:<12} {:>6} {:>8} {:>10} {:>10} {:>10}\n",
+        r.threads, "sampling", "rays", "objects", "queries", "buffer MB", "ms"
+    );
+    for row in &r.rows {
+        out += &format!(
+            "{:<12} {:>6} {:>8} {:>10} {:>10.1} {:>10.0}\n",
+            row.sampling,
+            row.rays,
+            row.objects,
+            row.queries,
+            row.buffer_bytes as f64 / 1e6,
+            row.ms_per_iteration
+        );
+    }
+    out
+}

@@ -22,6 +22,21 @@ enum Which {
     ///
     /// Example: `neuroom bench synth --width 1024 --json`
     Synth(SynthArgs),
+    /// The paper's Table 3: field queries, buffer memory and time per pose-fit iteration for 256 … 2048
+    /// rays with the background + 1 and + 10 objects, safe-region against classical sampling.
+    ///
+    /// Example: `neuroom bench render --json`
+    Render(RenderArgs),
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// Print one JSON object after the table.
+    #[arg(long)]
+    json: bool,
+    /// Timed iterations per row (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    iterations: usize,
 }
 
 #[derive(clap::Args)]
@@ -76,6 +91,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::Synth(a) => {
             let report = bench::synth(a.width, a.seed)?;
             println!("{}", bench::describe_synth(&report));
+            if a.json {
+                println!("{}", serde_json::to_string(&report)?);
+            }
+        }
+        Which::Render(a) => {
+            let report = bench::render(a.iterations)?;
+            print!("{}", bench::describe_render(&report));
             if a.json {
                 println!("{}", serde_json::to_string(&report)?);
             }
