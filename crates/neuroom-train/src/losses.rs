@@ -107,10 +107,10 @@ pub fn ray_loss(
     let mut grad = RayOutput::default();
     let mut parts = [0.0; 4];
     if let Some(rgb) = target.rgb {
-        for c in 0..3 {
-            let e = out.rgb[c] - rgb[c];
+        for ((g, o), t) in grad.rgb.iter_mut().zip(out.rgb).zip(rgb) {
+            let e = o - t;
             parts[3] += e * e / 3.0;
-            grad.rgb[c] = scales.color * 2.0 * e / 3.0;
+            *g = scales.color * 2.0 * e / 3.0;
         }
         parts[0] = scales.color * parts[3];
     }

@@ -48,7 +48,7 @@ impl Progress for Bar {
         if let Some(bar) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             bar.set_length(total);
             bar.set_position(step);
-            if step % 10 == 0 || step == total {
+            if step.is_multiple_of(10) || step == total {
                 bar.set_message(format!(
                     "loss {:.4} psnr {:.2} dB",
                     loss.total(),

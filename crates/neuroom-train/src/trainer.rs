@@ -103,9 +103,9 @@ pub fn field_config(
             let half = std::array::from_fn(|a| 0.5 * (bounds.max[a] - bounds.min[a]));
             let mut c = NeusConfig::object(half);
             let centre: [f32; 3] = std::array::from_fn(|a| 0.5 * (bounds.max[a] + bounds.min[a]));
-            for a in 0..3 {
-                c.bounds_min[a] += centre[a];
-                c.bounds_max[a] += centre[a];
+            for (a, m) in centre.iter().enumerate() {
+                c.bounds_min[a] += m;
+                c.bounds_max[a] += m;
             }
             c.init.centre = centre;
             c
@@ -664,7 +664,9 @@ impl Trainer<'_> {
         while !self.finished() {
             let loss = self.step();
             progress.step(self.state.step, self.state.total_steps, &loss);
-            if let Some(dir) = checkpoint.filter(|_| every > 0 && self.state.step % every == 0) {
+            if let Some(dir) =
+                checkpoint.filter(|_| every > 0 && self.state.step.is_multiple_of(every))
+            {
                 self.save(dir)?;
             }
         }
