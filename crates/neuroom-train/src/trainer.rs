@@ -123,6 +123,8 @@ pub fn field_config(
 /// Reusable buffers of one step.
 #[derive(Debug, Default)]
 struct Batch {
+    /// Samples of the surface rays, which come first; the empty rays' samples follow and need no colour.
+    full: usize,
     offsets: Vec<usize>,
     t: Vec<f32>,
     points: Vec<[f32; 3]>,
@@ -158,6 +160,7 @@ pub struct Trainer<'a> {
     empty_rays: Vec<u32>,
     batch: Batch,
     tape: Tape<f32>,
+    empty_tape: Tape<f32>,
     eikonal_tape: Tape<f32>,
     ray_tape: RayTape<f32>,
 }
@@ -281,6 +284,7 @@ impl<'a> Trainer<'a> {
             empty_rays,
             batch: Batch::default(),
             tape: Tape::default(),
+            empty_tape: Tape::default(),
             eikonal_tape: Tape::default(),
             ray_tape: RayTape::default(),
         }
@@ -310,38 +314,12 @@ impl<'a> Trainer<'a> {
         self.draw_batch();
         let mut prof = self.state.profile;
         prof.sample += lap.next();
-        let b = &self.batch;
-        let codes = CodeSet {
-            appearance: Codes::PerPoint(&b.appearance),
-            light: Codes::PerPoint(&b.light),
-            object: Codes::Fixed(0),
-        };
-        self.field
-            .forward(&b.points, &b.dirs, &codes, Outputs::Full, &mut self.tape);
-        let n = b.points.len();
-        self.batch.sdf.resize(n, 0.0);
-        self.batch.rgb.resize(3 * n, 0.0);
-        self.tape.copy_sdf(&mut self.batch.sdf);
-        self.tape.copy_rgb(&mut self.batch.rgb);
+        self.forward();
         prof.forward += lap.next();
         let (mut parts, d_inv_s) = self.ray_losses();
         parts.sdf = self.sdf_losses();
         prof.render += lap.next();
-        let b = &self.batch;
-        let codes = CodeSet {
-            appearance: Codes::PerPoint(&b.appearance),
-            light: Codes::PerPoint(&b.light),
-            object: Codes::Fixed(0),
-        };
-        self.field.backward(
-            &codes,
-            &mut self.tape,
-            &b.d_sdf,
-            Some(&b.d_rgb),
-            &mut self.grads,
-            None,
-        );
-        self.field.backward_inv_s(d_inv_s, &mut self.grads);
+        self.backward(d_inv_s);
         prof.backward += lap.next();
         parts.eikonal = self.eikonal();
         prof.eikonal += lap.next();
@@ -357,6 +335,67 @@ impl<'a> Trainer<'a> {
         self.state.last = parts;
         self.calibrate();
         parts
+    }
+
+    /// Field forward pass of the batch: full outputs for the surface rays' samples, SDF only for the
+    /// empty rays' (their colour is never used).
+    fn forward(&mut self) {
+        let b = &mut self.batch;
+        let (n, f) = (b.points.len(), b.full);
+        let codes = CodeSet {
+            appearance: Codes::PerPoint(&b.appearance),
+            light: Codes::PerPoint(&b.light),
+            object: Codes::Fixed(0),
+        };
+        b.sdf.resize(n, 0.0);
+        b.rgb.clear();
+        b.rgb.resize(3 * n, 0.0);
+        self.field.forward(
+            &b.points[..f],
+            &b.dirs[..f],
+            &codes.slice(0, f),
+            Outputs::Full,
+            &mut self.tape,
+        );
+        self.tape.copy_sdf(&mut b.sdf[..f]);
+        self.tape.copy_rgb(&mut b.rgb[..3 * f]);
+        self.field.forward(
+            &b.points[f..],
+            &[],
+            &codes.slice(f, n),
+            Outputs::Sdf,
+            &mut self.empty_tape,
+        );
+        self.empty_tape.copy_sdf(&mut b.sdf[f..]);
+    }
+
+    /// Field backward pass of the batch (both parts) and of the sharpness.
+    fn backward(&mut self, d_inv_s: f32) {
+        let b = &self.batch;
+        let (n, f) = (b.points.len(), b.full);
+        let codes = CodeSet {
+            appearance: Codes::PerPoint(&b.appearance),
+            light: Codes::PerPoint(&b.light),
+            object: Codes::Fixed(0),
+        };
+        let grads = &mut self.grads;
+        self.field.backward(
+            &codes.slice(0, f),
+            &mut self.tape,
+            &b.d_sdf[..f],
+            Some(&b.d_rgb[..3 * f]),
+            grads,
+            None,
+        );
+        self.field.backward(
+            &codes.slice(f, n),
+            &mut self.empty_tape,
+            &b.d_sdf[f..],
+            None,
+            grads,
+            None,
+        );
+        self.field.backward_inv_s(d_inv_s, grads);
     }
 
     fn schedule(&self) -> Schedule {
@@ -402,9 +441,21 @@ impl<'a> Trainer<'a> {
         let mut samples = Vec::new();
         let rays = &self.data.rays;
         let rng = &mut self.state.rng;
-        for _ in 0..self.budget.batch_rays {
-            let pick_empty = !self.empty_rays.is_empty()
-                && (self.surface_rays.is_empty() || rng.next_f32() < self.config.empty_fraction);
+        let batch = self.budget.batch_rays;
+        let n_empty = match (self.surface_rays.is_empty(), self.empty_rays.is_empty()) {
+            (_, true) => 0,
+            (true, false) => batch,
+            (false, false) => (0..batch)
+                .filter(|_| rng.next_f32() < self.config.empty_fraction)
+                .count(),
+        };
+        b.full = 0;
+        // Surface rays first, then empty ones (see `Batch::full`).
+        for r in 0..batch {
+            let pick_empty = r >= batch - n_empty;
+            if r == batch - n_empty {
+                b.full = b.t.len();
+            }
             let pool = if pick_empty {
                 &self.empty_rays
             } else {
@@ -486,6 +537,9 @@ impl<'a> Trainer<'a> {
             });
         }
         let n = b.t.len();
+        if n_empty == 0 {
+            b.full = n;
+        }
         b.d_sdf.resize(n, 0.0);
         b.d_rgb.resize(3 * n, 0.0);
     }
