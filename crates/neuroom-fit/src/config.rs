@@ -1,0 +1,123 @@
+//! Settings of the holistic fit: sampling, schedule, learning rates, loss weights and ablation switches.
+
+use crate::relations::RelationRules;
+use neuroom_render::RenderConfig;
+use serde::{Deserialize, Serialize};
+
+/// Weights of the losses (the paper: λ_pho = 1, λ_obs = 100, λ_phy = 1 for each physical term).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LossWeights {
+    /// Photometric (mean squared colour error over the sampled rays).
+    pub photometric: f32,
+    /// Observation (1 − cos of the viewing direction, per object).
+    pub observation: f32,
+    /// Magnetic (squared gap of each relation's contact).
+    pub magnetic: f32,
+    /// Violation (squared hinge on SDF < ε at surface points).
+    pub violation: f32,
+    /// Gravity (1 − cos of an upright object's tilt).
+    pub gravity: f32,
+}
+
+impl Default for LossWeights {
+    fn default() -> Self {
+        Self {
+            photometric: 1.0,
+            observation: 100.0,
+            magnetic: 1.0,
+            violation: 1.0,
+            gravity: 1.0,
+        }
+    }
+}
+
+/// Which losses take part, for the paper's ablation table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LossSwitches {
+    /// The photometric loss (joint rendering).
+    pub photometric: bool,
+    /// The observation loss.
+    pub observation: bool,
+    /// Magnetic, violation and gravity losses.
+    pub physical: bool,
+}
+
+impl Default for LossSwitches {
+    fn default() -> Self {
+        Self {
+            photometric: true,
+            observation: true,
+            physical: true,
+        }
+    }
+}
+
+/// Everything a fit needs besides its inputs.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitConfig {
+    /// Rays on the objects per iteration (N).
+    pub rays: usize,
+    /// Rays on the background per iteration, as a fraction of `rays` (the paper: 0.2).
+    pub background_fraction: f32,
+    /// Stage 1: iterations on the poses.
+    pub pose_iterations: usize,
+    /// Stage 2: iterations on light codes, appearance codes and tone adjusters, poses frozen.
+    pub appearance_iterations: usize,
+    /// Adam rate of translations (metres).
+    pub lr_translation: f32,
+    /// Adam rate of the 6D rotation components.
+    pub lr_rotation: f32,
+    /// Adam rate of tone shifts and scales.
+    pub lr_tone: f32,
+    /// Adam rate of light and appearance code rows.
+    pub lr_codes: f32,
+    /// Loss weights.
+    pub weights: LossWeights,
+    /// Ablation switches.
+    pub losses: LossSwitches,
+    /// Keep objects flagged upright exactly upright: their rotation is projected onto yaw-only after each
+    /// step (the gravity loss is then zero); off, only the gravity loss holds them.
+    pub yaw_only_upright: bool,
+    /// Margin of the violation loss (metres; the paper: 0.025).
+    pub epsilon: f32,
+    /// Iterations between regenerations of relations and of the object mask.
+    pub relation_interval: usize,
+    /// Rules of relation generation.
+    pub rules: RelationRules,
+    /// Surface points per object for the physical losses.
+    pub surface_points: usize,
+    /// Half-width of the mask dilation window (2: 5×5).
+    pub mask_dilation: usize,
+    /// Seed of ray and surface sampling.
+    pub seed: u64,
+    /// Height of the before/after preview renders (width twice that); `None` renders none.
+    pub preview_height: Option<u32>,
+    /// The renderer's settings.
+    pub render: RenderConfig,
+}
+
+impl Default for FitConfig {
+    fn default() -> Self {
+        Self {
+            rays: 1024,
+            background_fraction: 0.2,
+            pose_iterations: 300,
+            appearance_iterations: 100,
+            lr_translation: 1e-2,
+            lr_rotation: 1e-2,
+            lr_tone: 1e-2,
+            lr_codes: 1e-2,
+            weights: LossWeights::default(),
+            losses: LossSwitches::default(),
+            yaw_only_upright: false,
+            epsilon: 0.025,
+            relation_interval: 50,
+            rules: RelationRules::default(),
+            surface_points: 256,
+            mask_dilation: 2,
+            seed: 0,
+            preview_height: Some(128),
+            render: RenderConfig::default(),
+        }
+    }
+}
