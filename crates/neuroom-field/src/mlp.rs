@@ -46,6 +46,41 @@ impl Activation {
         }
     }
 
+    /// `y ← act(y)` on the first `width` values of every `stride`-long row; the match is outside the loops
+    /// so that each activation's loop vectorises.
+    fn apply_rows<T: Real>(self, y: &mut [T], stride: usize, width: usize) {
+        let rows = y.chunks_exact_mut(stride).map(|r| &mut r[..width]);
+        match self {
+            Activation::None => {}
+            Activation::Relu => rows.flatten().for_each(|v| *v = v.max(T::ZERO)),
+            _ => rows.flatten().for_each(|v| *v = self.apply(*v)),
+        }
+    }
+
+    /// `d ← d · act'(x)` on the first `width` values of every `stride`-long row, with `act'` expressed
+    /// through the saved outputs `y` (same layout as `d`).
+    fn scale_by_derivative<T: Real>(self, d: &mut [T], y: &[T], stride: usize, width: usize) {
+        let rows = d.chunks_exact_mut(stride).zip(y.chunks_exact(stride));
+        match self {
+            Activation::None => {}
+            Activation::Relu => {
+                for (dr, yr) in rows {
+                    for (dv, yv) in dr[..width].iter_mut().zip(&yr[..width]) {
+                        // An unconditional store, so the loop becomes a vector select.
+                        *dv = if *yv > T::ZERO { *dv } else { T::ZERO };
+                    }
+                }
+            }
+            _ => {
+                for (dr, yr) in rows {
+                    for (dv, yv) in dr[..width].iter_mut().zip(&yr[..width]) {
+                        *dv *= self.derivative(*yv);
+                    }
+                }
+            }
+        }
+    }
+
     /// Derivative expressed through the output `y = act(x)`.
     #[inline(always)]
     fn derivative<T: Real>(self, y: T) -> T {
@@ -264,14 +299,7 @@ impl Mlp {
             };
             let y = &mut after[0][..n * op];
             matmul(n, o, i, x, xs, 1, w, op, y, op, init);
-            let act = self.activation(l);
-            if act != Activation::None {
-                for row in y.chunks_exact_mut(op) {
-                    for v in &mut row[..o] {
-                        *v = act.apply(*v);
-                    }
-                }
-            }
+            self.activation(l).apply_rows(y, op, o);
         }
     }
 
@@ -326,13 +354,12 @@ impl Mlp {
     ) {
         let last = self.layers() - 1;
         let (out_w, dp) = (self.dims[last + 1], padded(self.dims[last + 1]));
-        let act = self.activation(last);
-        let y = &ws.acts[last];
-        for p in 0..n {
-            for j in 0..out_w {
-                ws.delta[p * dp + j] = d_out.0[p * d_out.1 + j] * act.derivative(y[p * dp + j]);
-            }
+        for (p, row) in ws.delta[..n * dp].chunks_exact_mut(dp).enumerate() {
+            row[..out_w].copy_from_slice(&d_out.0[p * d_out.1..p * d_out.1 + out_w]);
         }
+        let y = &ws.acts[last][..n * dp];
+        self.activation(last)
+            .scale_by_derivative(&mut ws.delta[..n * dp], y, dp, out_w);
         for l in (0..=last).rev() {
             let (i, o) = (self.dims[l], self.dims[l + 1]);
             let op = padded(o);
@@ -387,12 +414,8 @@ impl Mlp {
                 pack_transposed(&params[wo..bo], i, o, i, &mut ws.packed);
                 let dprev = &mut ws.delta_prev[..n * ip];
                 matmul(n, i, o, delta, op, 1, &ws.packed, ip, dprev, ip, Init::Zero);
-                let act = self.activation(l - 1);
-                for (drow, xrow) in dprev.chunks_exact_mut(ip).zip(x.chunks_exact(ip)) {
-                    for (d, y) in drow[..i].iter_mut().zip(&xrow[..i]) {
-                        *d *= act.derivative(*y);
-                    }
-                }
+                self.activation(l - 1)
+                    .scale_by_derivative(dprev, &x[..n * ip], ip, i);
                 std::mem::swap(&mut ws.delta, &mut ws.delta_prev);
             } else if let Some((buf, cols)) = d_input.take() {
                 assert!(
