@@ -5,7 +5,7 @@
 //! - [`losses`]: colour, depth, mask, SDF-from-depth terms; [`trainer`]: the loop of one model, resumable.
 //! - [`augment`] + [`lighting`]: HDR lighting augmentation and light codes.
 //! - [`room`]: `train_room` and the model directory of a room with its reader.
-//! - [`eval`]: held-out PSNR, depth error, Chamfer, light-code check; [`bench`]: timed runs with reports.
+//! - [`eval`]: held-out PSNR, depth error, Chamfer, light-code check; [`mod@bench`]: timed runs with reports.
 
 pub mod augment;
 pub mod bench;
