@@ -569,7 +569,7 @@ impl<T: Real> NeusField<T> {
             None,
             Some((&mut ws.d_sdf_in, si)),
         );
-        self.split_encoding_grad(ws);
+        self.split_encoding_grad(ws, si);
         let mut gradient = std::mem::take(&mut ws.gradient);
         self.position_grads(ws, &mut gradient);
         ws.gradient = gradient;
@@ -579,17 +579,11 @@ impl<T: Real> NeusField<T> {
     }
 
     /// Copies the encoding's columns of the SDF input gradient (`ws.d_sdf_in`, row-major) into `ws.d_enc`
-    /// (column-major), where [`NeusField::position_grads`] and the hash-table scatter read them.
-    fn split_encoding_grad(&self, ws: &mut Workspace<T>) {
+    /// (column-major), where [`NeusField::position_grads`] and the hash-table scatter read them. `stride`
+    /// is the row stride `ws.d_sdf_in` was written with.
+    fn split_encoding_grad(&self, ws: &mut Workspace<T>, stride: usize) {
         let enc = self.config.hash.output_dim();
-        transpose(
-            &ws.d_sdf_in,
-            self.sdf_in_dim(),
-            &mut ws.d_enc,
-            CHUNK,
-            ws.n,
-            enc,
-        );
+        transpose(&ws.d_sdf_in, stride, &mut ws.d_enc, CHUNK, ws.n, enc);
     }
 
     /// `∂/∂x` of the network part for the `n` points of `ws`'s chunk, given the gradient of a loss with
@@ -774,6 +768,14 @@ impl<T: Real> NeusField<T> {
         }
         let params = self.params.get(Group::SdfMlp);
         let gs = Some(&mut grads.groups[Group::SdfMlp as usize][..]);
+        let (enc, od) = (self.config.hash.output_dim(), self.config.object_dim());
+        // The position columns' gradient is needed only for `d_points`: without it (and without object
+        // codes) the input gradient stops at the encoding, a whole 16-lane column block less.
+        let cols = if d_points.is_some() || od > 0 {
+            si
+        } else {
+            enc
+        };
         self.sdf_mlp.backward(
             params,
             &ws.sdf_in,
@@ -781,10 +783,9 @@ impl<T: Real> NeusField<T> {
             &mut ws.sdf_ws,
             &ws.d_out,
             gs,
-            Some((&mut ws.d_sdf_in, si)),
+            Some((&mut ws.d_sdf_in, cols)),
         );
-        let (enc, od) = (self.config.hash.output_dim(), self.config.object_dim());
-        self.split_encoding_grad(ws);
+        self.split_encoding_grad(ws, cols);
         if od > 0 {
             for p in 0..n {
                 let c = codes.object.get(p);
