@@ -5,12 +5,13 @@ mod common;
 
 use glam::Vec3;
 use neuroom_core::formats::read_capture;
+use neuroom_core::formats::read_room;
 use neuroom_train::augment::Augmentation;
 use neuroom_train::dataset::{Aabb, Dataset, LoadOptions, Role};
 use neuroom_train::eval::{evaluate, extract_mesh, mesh_chamfer};
 use neuroom_train::mesh_extract::{Grid, extract_surface};
 use neuroom_train::progress::Quiet;
-use neuroom_train::room::with_threads;
+use neuroom_train::room::{load_model_data, model_specs, with_threads};
 use neuroom_train::{ModelKind, TrainConfig, Trainer, load_room_models, train_room};
 
 /// A fast configuration for tests: small batches and tables, no time budget, no augmentation.
@@ -125,6 +126,17 @@ fn a_room_trains_into_a_model_folder_that_loads_and_resumes() {
     let mut config = quick_config(30);
     config.env_maps = neuroom_train::augment::vendored_env_maps();
     config.holdout = 6;
+    // An interrupted background run: 12 steps taken, checkpoint on disk.
+    let spec = model_specs(&read_room(&room).unwrap()).remove(0);
+    let (data, bounds, _) = load_model_data(&spec, &config).unwrap();
+    let aug = Augmentation::load(&config.env_maps).unwrap();
+    let mut partial = Trainer::new(&data, &aug, &config, ModelKind::Background, bounds);
+    for _ in 0..12 {
+        partial.step();
+    }
+    partial
+        .save(&out.join("tiny/background/checkpoint"))
+        .unwrap();
     let summary = train_room(&room, &out, &config, &Quiet).unwrap();
     assert_eq!(
         summary.trained,
@@ -138,7 +150,11 @@ fn a_room_trains_into_a_model_folder_that_loads_and_resumes() {
     assert_eq!(entry.light_codes.names.len(), 1 + config.env_maps.len());
     assert_eq!(field.config().light_codes, entry.light_codes.names.len());
     assert!(entry.stats.eval.is_some() && entry.stats.steps == 30);
-    assert!(models.background().is_some());
+    let (background, _) = models.background().unwrap();
+    assert_eq!(
+        background.stats.steps, 30,
+        "the background resumes at step 12 and stops at 30"
+    );
     assert!(!summary.dir.join("background/checkpoint").exists());
     // A second call finds every model finished.
     let again = train_room(&room, &out, &config, &Quiet).unwrap();
