@@ -20,6 +20,7 @@ enum Command {
     Synth(commands::synth::Args),
     Info(commands::info::Args),
     Train(commands::train::Args),
+    Render(commands::render::Args),
     Bench(commands::bench::Args),
 }
 
@@ -30,6 +31,7 @@ fn main() {
         Command::Synth(args) => commands::synth::run(args),
         Command::Info(args) => commands::info::run(args),
         Command::Train(args) => commands::train::run(args),
+        Command::Render(args) => commands::render::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };
     if let Err(e) = result {

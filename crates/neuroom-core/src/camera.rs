@@ -334,9 +334,28 @@ pub fn opencv_to_opengl(camera_to_world: &Pose) -> Pose {
     opengl_to_opencv(camera_to_world)
 }
 
+/// Camera-to-world pose of an OpenGL camera (looks along −z, +y up) at `eye` looking at `target`
+/// with world +z as up.
+pub fn look_at(eye: DVec3, target: DVec3) -> Pose {
+    let forward = (target - eye).normalize();
+    let right = forward.cross(DVec3::Z).try_normalize().unwrap_or(DVec3::X);
+    let up = right.cross(forward);
+    Pose::new(DMat3::from_cols(right, up, -forward), eye)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn look_at_points_minus_z_at_target_with_y_up() {
+        let pose = look_at(DVec3::new(2.0, 1.0, 1.5), DVec3::new(2.0, 4.0, 1.5));
+        let forward = pose.transform_vector(-DVec3::Z);
+        assert!((forward - DVec3::Y).length() < 1e-12);
+        assert!((pose.transform_vector(DVec3::Y) - DVec3::Z).length() < 1e-12);
+        assert!((pose.rotation.determinant() - 1.0).abs() < 1e-12);
+    }
+
 
     fn distorted() -> Pinhole {
         Pinhole::new(320, 240, 260.0, 250.0, 161.0, 118.5)

@@ -4,19 +4,11 @@
 
 use std::f64::consts::{PI, TAU};
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 use neuroom_core::Pose;
+use neuroom_core::camera::look_at;
 use rand::Rng;
 use rand_pcg::Pcg64;
-
-/// Camera-to-world pose of an OpenGL camera (looks along −z, +y up) at `eye` looking at `target`
-/// with world +z as up.
-pub fn look_at(eye: DVec3, target: DVec3) -> Pose {
-    let forward = (target - eye).normalize();
-    let right = forward.cross(DVec3::Z).try_normalize().unwrap_or(DVec3::X);
-    let up = right.cross(forward);
-    Pose::new(DMat3::from_cols(right, up, -forward), eye)
-}
 
 /// `count` cameras at `distance` from the origin looking at it, elevations spread uniformly in
 /// area between `elevation_deg` bounds and azimuths by the golden angle, with a little jitter.
@@ -80,15 +72,6 @@ pub fn room_views(count: u32, size: DVec3, margin: f64, rng: &mut Pcg64) -> Vec<
 mod tests {
     use super::*;
     use rand::SeedableRng;
-
-    #[test]
-    fn look_at_points_minus_z_at_target_with_y_up() {
-        let pose = look_at(DVec3::new(2.0, 1.0, 1.5), DVec3::new(2.0, 4.0, 1.5));
-        let forward = pose.transform_vector(-DVec3::Z);
-        assert!((forward - DVec3::Y).length() < 1e-12);
-        assert!((pose.transform_vector(DVec3::Y) - DVec3::Z).length() < 1e-12);
-        assert!((pose.rotation.determinant() - 1.0).abs() < 1e-12);
-    }
 
     #[test]
     fn band_stays_in_its_elevations() {

@@ -5,7 +5,9 @@
 pub mod bench;
 pub mod demo;
 pub mod inspect;
+pub mod scene;
 pub mod synth;
 pub mod train;
+pub mod view;
 
 pub use inspect::{RoomReport, inspect_room};

@@ -3,5 +3,6 @@
 pub mod bench;
 pub mod demo;
 pub mod info;
+pub mod render;
 pub mod synth;
 pub mod train;

@@ -1,0 +1,105 @@
+//! Rendering a trained room as an arrangement places it, from the panorama camera or any pinhole view.
+
+use std::path::Path;
+
+use glam::DVec3;
+use neuroom_core::Pose;
+use neuroom_core::camera::{Camera, Equirect, Pinhole, look_at};
+use neuroom_core::formats::{self, read_arrangement};
+use neuroom_core::image::{DepthImage, MaskImage, RgbImage};
+use neuroom_render::{RenderConfig, render_image};
+
+use crate::scene::{build_scene, load_models};
+
+/// Which camera to render from.
+#[derive(Clone, Debug)]
+pub enum ViewCamera {
+    /// An equirectangular panorama `width × width/2` at the arrangement's camera.
+    Panorama {
+        /// Width in pixels (even).
+        width: u32,
+    },
+    /// A pinhole camera at `eye` looking at `target` (world z up) with a horizontal field of view.
+    Pinhole {
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+        /// Horizontal field of view, degrees.
+        fov_deg: f64,
+        /// Camera centre, world metres.
+        eye: DVec3,
+        /// Point looked at, world metres.
+        target: DVec3,
+    },
+}
+
+impl ViewCamera {
+    /// The camera model and its pose, given the arrangement's panorama camera.
+    fn resolve(&self, panorama_pose: &Pose) -> anyhow::Result<(Camera, Pose)> {
+        match *self {
+            ViewCamera::Panorama { width } => {
+                let camera = Equirect::new(width, width / 2).map_err(anyhow::Error::msg)?;
+                Ok((Camera::Equirect(camera), *panorama_pose))
+            }
+            ViewCamera::Pinhole {
+                width,
+                height,
+                fov_deg,
+                eye,
+                target,
+            } => {
+                anyhow::ensure!(width > 0 && height > 0, "image size must be positive");
+                anyhow::ensure!(
+                    fov_deg > 1.0 && fov_deg < 179.0,
+                    "field of view must lie in (1°, 179°)"
+                );
+                anyhow::ensure!((target - eye).length() > 1e-6, "eye and target must differ");
+                let f = 0.5 * width as f64 / (0.5 * fov_deg.to_radians()).tan();
+                let camera =
+                    Pinhole::new(width, height, f, f, 0.5 * width as f64, 0.5 * height as f64);
+                Ok((Camera::Pinhole(camera), look_at(eye, target)))
+            }
+        }
+    }
+}
+
+/// A rendered view: colour (sRGB), depth (pinhole z-depth or panorama ray distance) and instance ids.
+pub struct View {
+    /// Colour.
+    pub rgb: RgbImage,
+    /// Depth in metres, 0 where nothing was hit.
+    pub depth: DepthImage,
+    /// Instance ids, 0 for the background.
+    pub mask: MaskImage,
+}
+
+/// Renders the models in `models` (a room's model folder) placed as the arrangement file says.
+pub fn render_arrangement(
+    models: &Path,
+    arrangement: &Path,
+    camera: &ViewCamera,
+) -> anyhow::Result<View> {
+    let arrangement = read_arrangement(arrangement)?;
+    let scene = build_scene(load_models(models)?, &arrangement)?;
+    let (camera, pose) = camera.resolve(&arrangement.camera_to_world)?;
+    let (rgb, depth, mask) = render_image(&scene, &camera, &pose, &RenderConfig::default());
+    Ok(View { rgb, depth, mask })
+}
+
+/// Writes a view: colour to `rgb`, and depth (16-bit millimetres) and instance mask where asked.
+pub fn write_view(
+    view: &View,
+    rgb: &Path,
+    depth: Option<&Path>,
+    mask: Option<&Path>,
+) -> anyhow::Result<()> {
+    formats::write_rgb(rgb, &view.rgb)?;
+    if let Some(p) = depth {
+        formats::write_depth(p, &view.depth, formats::transforms::DEFAULT_DEPTH_UNIT)?;
+    }
+    if let Some(p) = mask {
+        formats::write_mask(p, &view.mask)?;
+    }
+    Ok(())
+}
