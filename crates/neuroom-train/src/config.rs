@@ -11,8 +11,8 @@ use std::path::PathBuf;
 pub struct ModelBudget {
     /// Most optimisation steps.
     pub steps: u64,
-    /// Wall-clock budget in seconds (data loading excluded); the step count is then fitted to it after the
-    /// first steps, so the learning-rate decay still ends on time.
+    /// Wall-clock budget in seconds (data loading excluded); the step count is then fitted to it during
+    /// the run (at most `steps`), so the learning-rate decay still ends on time.
     pub time_budget_s: Option<f64>,
     /// Rays per step.
     pub batch_rays: usize,
@@ -74,11 +74,11 @@ pub struct TrainConfig {
 }
 
 impl Default for TrainConfig {
-    /// Objects: 2 000 steps or 5 minutes, 2 048 rays × (12 shell + 4 uniform) samples, T = 2^15, finest
-    /// 512. Room: 3 000 steps or 10 minutes, 2 048 rays, T = 2^18, finest 1 024. Adam at 1e-2 (tables,
-    /// codes), 5e-3 (networks), 1e-2 (variance), 20 warm-up steps, then linear decay to 3 %; 4 levels at
-    /// first and one more every 40 steps; every 10th frame held out; the vendored HDR maps for augmentation,
-    /// 30 % of surface rays re-lit.
+    /// Objects: 10 000 steps or 5 minutes (whichever ends first), 2 048 rays × (12 shell + 4 uniform)
+    /// samples, T = 2^15, finest 512. Room: 10 000 steps or 10 minutes, 2 048 rays, T = 2^18, finest
+    /// 1 024. Adam at 1e-2 (tables, codes), 5e-3 (networks), 1e-2 (variance), 20 warm-up steps, then
+    /// linear decay to 3 %; 4 hash levels at first and one more every 40 steps; every 10th frame held out;
+    /// the vendored HDR maps for augmentation, 30 % of surface rays re-lit.
     fn default() -> Self {
         let mut lr = [0.0; NUM_GROUPS];
         lr[Group::Hash as usize] = 1e-2;
@@ -90,7 +90,7 @@ impl Default for TrainConfig {
         lr[Group::Variance as usize] = 1e-2;
         Self {
             object: ModelBudget {
-                steps: 2000,
+                steps: 10_000,
                 time_budget_s: Some(300.0),
                 batch_rays: 2048,
                 shell_samples: 12,
@@ -101,7 +101,7 @@ impl Default for TrainConfig {
                 shell_min: 0.01,
             },
             background: ModelBudget {
-                steps: 3000,
+                steps: 10_000,
                 time_budget_s: Some(600.0),
                 batch_rays: 2048,
                 shell_samples: 24,

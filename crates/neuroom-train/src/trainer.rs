@@ -29,18 +29,20 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::Instant;
 
-/// Steps timed before a time budget fixes the total step count.
+/// Steps timed before a time budget first fits the total step count.
 const CALIBRATION_STEPS: u64 = 8;
+
+/// Steps between later fits (the machine's load may change during a run).
+const REFIT_EVERY: u64 = 50;
 
 /// Progress of a run: what a checkpoint stores besides the field and Adam.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrainState {
     /// Steps taken.
     pub step: u64,
-    /// Steps of the whole run (fitted to the time budget after calibration).
+    /// Steps of the whole run (with a time budget, refitted to the time left every few steps, so the
+    /// learning-rate decay ends when the time does).
     pub total_steps: u64,
-    /// Whether `total_steps` is final.
-    pub calibrated: bool,
     /// The sampling generator.
     pub rng: Pcg32,
     /// Seconds spent in steps so far (over all sessions).
@@ -194,7 +196,6 @@ impl<'a> Trainer<'a> {
         let state = TrainState {
             step: 0,
             total_steps: budget.steps,
-            calibrated: budget.time_budget_s.is_none(),
             rng: Pcg32::new(config.seed, 0x7A1E),
             elapsed_s: 0.0,
             last: LossParts::default(),
@@ -407,18 +408,21 @@ impl<'a> Trainer<'a> {
         }
     }
 
-    /// With a time budget, fixes the step count from the mean step time once calibration steps have run.
+    /// With a time budget, fits the step count to the time left from the mean step time so far: first
+    /// after the calibration steps, then every [`REFIT_EVERY`] steps.
     fn calibrate(&mut self) {
         let Some(budget) = self.budget.time_budget_s else {
             return;
         };
-        if self.state.calibrated || self.state.step < CALIBRATION_STEPS {
+        let step = self.state.step;
+        if step < CALIBRATION_STEPS
+            || (step > CALIBRATION_STEPS && !step.is_multiple_of(REFIT_EVERY))
+        {
             return;
         }
-        let per_step = self.state.elapsed_s / self.state.step as f64;
-        let fitted = self.state.step + ((budget - self.state.elapsed_s).max(0.0) / per_step) as u64;
-        self.state.total_steps = fitted.min(self.budget.steps).max(self.state.step);
-        self.state.calibrated = true;
+        let per_step = self.state.elapsed_s / step as f64;
+        let fitted = step + ((budget - self.state.elapsed_s).max(0.0) / per_step) as u64;
+        self.state.total_steps = fitted.min(self.budget.steps).max(step);
     }
 
     /// Draws the rays of a step and their samples, points, codes and targets.
