@@ -433,6 +433,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
                 objects,
                 camera,
                 &self.initial_dirs,
+                self.config.observation_tolerance_deg.to_radians(),
                 w.observation,
                 &mut self.pose_grads,
             );
@@ -445,6 +446,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
         log.violation = violation_loss(
             &self.scene,
             &self.surfaces,
+            &self.relations,
             self.config.epsilon,
             w.violation,
             &mut self.probe,

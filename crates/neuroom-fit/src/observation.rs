@@ -15,14 +15,17 @@ pub fn view_directions(objects: &[SceneObject], camera: Vec3) -> Vec<Vec3> {
         .collect()
 }
 
-/// The loss of `objects` against `initial` directions; adds `weight · ∂L/∂T` into `grads`.
+/// The loss of `objects` against `initial` directions with tolerance `tolerance` (radians); adds
+/// `weight · ∂L/∂T` into `grads`.
 pub fn observation_loss(
     objects: &[SceneObject],
     camera: Vec3,
     initial: &[Vec3],
+    tolerance: f32,
     weight: f32,
     grads: &mut [PoseGrad],
 ) -> f32 {
+    let free = 1.0 - tolerance.cos();
     let mut loss = 0.0;
     for ((o, &u0), g) in objects.iter().zip(initial).zip(grads) {
         let d = o.translation - camera;
@@ -32,7 +35,10 @@ pub fn observation_loss(
         }
         let u = d / len;
         let c = u.dot(u0);
-        loss += 1.0 - c;
+        if 1.0 - c <= free {
+            continue;
+        }
+        loss += 1.0 - c - free;
         // ∂(1 − u·u0)/∂d = −(u0 − (u·u0) u) / |d|.
         g.translation -= weight * (u0 - c * u) / len;
     }

@@ -138,12 +138,18 @@ fn observation_gradient_matches_finite_differences() {
             &sc.objects,
             camera,
             &initial,
+            0.02,
             100.0,
             &mut [PoseGrad::ZERO; 2],
         )
     };
     let mut grads = [PoseGrad::ZERO; 2];
-    assert!(observation_loss(&s.objects, camera, &initial, 100.0, &mut grads) > 0.0);
+    assert!(observation_loss(&s.objects, camera, &initial, 0.02, 100.0, &mut grads) > 0.0);
+    let mut none = [PoseGrad::ZERO; 2];
+    assert_eq!(
+        observation_loss(&s.objects, camera, &initial, 0.5, 100.0, &mut none),
+        0.0
+    );
     assert!(check_poses(&s, &grads, loss) < 1e-2);
 }
 
@@ -163,6 +169,11 @@ fn gravity_gradient_matches_finite_differences() {
 fn violation_gradient_matches_finite_differences() {
     let s = scene();
     let surf = surfaces(&s);
+    let relations = [Relation {
+        object: 0,
+        face: Face::Bottom,
+        target: Target::Room,
+    }];
     let counts: Vec<usize> = surf.iter().map(|p| p.points.len()).collect();
     // A ball misses the corners of its box's faces (about 1 − π/4 of the starts).
     assert!(
@@ -174,6 +185,7 @@ fn violation_gradient_matches_finite_differences() {
         violation_loss(
             sc,
             &surf,
+            &relations,
             0.025,
             1.0,
             &mut Probe::default(),
@@ -185,6 +197,7 @@ fn violation_gradient_matches_finite_differences() {
     let value = violation_loss(
         &s,
         &surf,
+        &relations,
         0.025,
         1.0,
         &mut Probe::default(),

@@ -1,0 +1,151 @@
+//! The whole fit on an analytic room: cuboids in a room shell, the panorama rendered by the renderer at
+//! the true poses, initial poses = truth + the benchmark's noise (±25 cm, ±20° yaw, ±5° tilt).
+
+use neuroom_core::metrics::ArrangementScore;
+use neuroom_fit::bench::{CaseReport, PoseNoise, analytic_room, run_case};
+use neuroom_fit::probe::Target;
+use neuroom_fit::relations::{Relation, generate_relations};
+use neuroom_fit::surface::Face;
+use neuroom_fit::{FitConfig, fit};
+
+fn config() -> FitConfig {
+    FitConfig {
+        rays: 512,
+        pose_iterations: 200,
+        appearance_iterations: 0,
+        preview_height: None,
+        ..FitConfig::default()
+    }
+}
+
+fn summary(s: &ArrangementScore) -> String {
+    format!(
+        "IoU {:.1} % ARE {:.2}° APE {:.2} cm",
+        s.mean_iou_percent.unwrap_or(0.0),
+        s.mean_rotation_error_deg.unwrap_or(f64::NAN),
+        s.mean_position_error_cm.unwrap_or(f64::NAN)
+    )
+}
+
+fn run(n: usize, seed: u64, config: &FitConfig) -> CaseReport {
+    let room = analytic_room(n, 100.0, 128, config);
+    let report = run_case(
+        room.scene.clone(),
+        &room.room,
+        &room.panorama,
+        &room.camera_to_world,
+        &room.objects,
+        &PoseNoise::default(),
+        seed,
+        config,
+    )
+    .unwrap();
+    println!(
+        "{n} objects, seed {seed}: before {} → after {} in {:.1} s",
+        summary(&report.before),
+        summary(&report.after),
+        report.seconds
+    );
+    report
+}
+
+/// Measured: IoU 99.4 %, ARE 0.1°, APE 0.1–0.2 cm from IoU ~43 %, ARE ~10°, APE ~20 cm.
+#[test]
+fn fit_recovers_three_noisy_poses() {
+    for seed in [0, 1] {
+        let after = run(3, seed, &config()).after;
+        assert!(after.mean_iou_percent.unwrap() > 95.0);
+        assert!(after.mean_rotation_error_deg.unwrap() < 1.0);
+        assert!(after.mean_position_error_cm.unwrap() < 1.0);
+    }
+}
+
+/// Five objects, one against a wall and one standing on another.
+#[test]
+fn fit_recovers_five_noisy_poses_with_relations() {
+    let after = run(5, 2, &config()).after;
+    assert!(after.mean_iou_percent.unwrap() > 95.0);
+    assert!(after.mean_rotation_error_deg.unwrap() < 1.0);
+    assert!(after.mean_position_error_cm.unwrap() < 1.0);
+}
+
+/// The paper's observation loss (no tolerance) pins objects to the noisy initial directions.
+#[test]
+fn untolerant_observation_loss_holds_the_fit_back() {
+    let config = FitConfig {
+        observation_tolerance_deg: 0.0,
+        ..config()
+    };
+    let strict = run(3, 0, &config).after;
+    assert!(strict.mean_position_error_cm.unwrap() > 3.0);
+}
+
+#[test]
+fn relations_follow_the_rules_and_hints() {
+    let room = analytic_room(5, 100.0, 16, &config());
+    let objects = &room.scene.objects;
+    let names: Vec<String> = room.objects.iter().map(|o| o.truth.name.clone()).collect();
+    let no_hints = vec![Vec::new(); 5];
+    let rel = generate_relations(objects, &room.room, &no_hints, &names, &Default::default());
+    let has = |object, face, target| {
+        rel.contains(&Relation {
+            object,
+            face,
+            target,
+        })
+    };
+    for k in 0..4 {
+        assert!(
+            has(k, Face::Bottom, Target::Room),
+            "object {k} on the floor"
+        );
+    }
+    assert!(
+        has(3, Face::Back, Target::Room),
+        "object 3 against the wall"
+    );
+    assert!(
+        has(4, Face::Bottom, Target::Object(0)),
+        "object 4 on object 0"
+    );
+    assert!(!has(4, Face::Bottom, Target::Room));
+    assert_eq!(rel.iter().filter(|r| r.face == Face::Back).count(), 1);
+    // Hints seed relations the geometry does not show.
+    let mut lifted = objects.clone();
+    lifted[4].translation.z += 0.5;
+    let hints: Vec<_> = room.objects.iter().map(|o| o.truth.hints.clone()).collect();
+    let without = generate_relations(&lifted, &room.room, &no_hints, &names, &Default::default());
+    let with = generate_relations(&lifted, &room.room, &hints, &names, &Default::default());
+    let on = Relation {
+        object: 4,
+        face: Face::Bottom,
+        target: Target::Object(0),
+    };
+    assert!(!without.contains(&on) && with.contains(&on));
+}
+
+#[test]
+fn previews_and_log_come_back() {
+    let config = FitConfig {
+        pose_iterations: 3,
+        appearance_iterations: 2,
+        preview_height: Some(16),
+        ..config()
+    };
+    let room = analytic_room(2, 100.0, 64, &config);
+    let init: Vec<_> = room.objects.iter().map(|o| o.truth.clone()).collect();
+    let result = fit(
+        room.scene.clone(),
+        &room.room,
+        &room.panorama,
+        &room.camera_to_world,
+        &init,
+        &config,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(result.log.len(), 5);
+    assert_eq!(result.before.as_ref().map(|b| b.width), Some(32));
+    assert!(result.after.is_some());
+    assert!(!result.relations.is_empty());
+}
