@@ -67,6 +67,10 @@ pub struct FitConfig {
     pub lr_translation: f32,
     /// Adam rate of the 6D rotation components.
     pub lr_rotation: f32,
+    /// Factor the pose rates fall to, exponentially, by the end of stage 1 (1: constant rates, the
+    /// default: on the analytic room of five cuboids, 200 and 300 iterations converge as well or better
+    /// at constant rates than falling to 0.3 or 0.1).
+    pub lr_final_factor: f32,
     /// Adam rate of tone shifts and scales.
     pub lr_tone: f32,
     /// Adam rate of light and appearance code rows.
@@ -110,6 +114,7 @@ impl Default for FitConfig {
             appearance_iterations: 100,
             lr_translation: 1e-2,
             lr_rotation: 1e-2,
+            lr_final_factor: 1.0,
             lr_tone: 1e-2,
             lr_codes: 1e-2,
             weights: LossWeights::default(),

@@ -405,7 +405,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
 
     /// One iteration of stage 1 (poses).
     pub fn pose_step(&mut self, iteration: usize) -> IterationLog {
-        if iteration > 0 && iteration % self.config.relation_interval.max(1) == 0 {
+        if iteration > 0 && iteration.is_multiple_of(self.config.relation_interval.max(1)) {
             self.refresh();
         }
         let mut log = self.empty_log(iteration, Stage::Poses);
@@ -419,7 +419,8 @@ impl<'a, F: FitField> Fitter<'a, F> {
         };
         self.geometric_losses(&mut log);
         self.flatten_pose_grads(render_grad.as_ref());
-        self.apply_pose_step();
+        let progress = iteration as f32 / self.config.pose_iterations.max(1) as f32;
+        self.apply_pose_step(self.config.lr_final_factor.powf(progress));
         log
     }
 
@@ -483,10 +484,15 @@ impl<'a, F: FitField> Fitter<'a, F> {
         }
     }
 
-    /// One Adam step on the poses, written back (re-orthonormalised 6D, upright projection if asked).
-    fn apply_pose_step(&mut self) {
-        self.pose_adam
-            .step(&mut self.pose_params, &self.pose_flat_grads, &self.pose_lr);
+    /// One Adam step on the poses at `factor` times their rates, written back (re-orthonormalised 6D,
+    /// upright projection if asked).
+    fn apply_pose_step(&mut self, factor: f32) {
+        self.pose_adam.step(
+            &mut self.pose_params,
+            &self.pose_flat_grads,
+            &self.pose_lr,
+            factor,
+        );
         for (k, o) in self.scene.objects.iter_mut().enumerate() {
             let base = k * POSE_SCALARS;
             o.translation = Vec3::from_slice(&self.pose_params[base..base + 3]);
@@ -534,7 +540,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
         let mut grads: Vec<f32> = grad.objects.iter().flat_map(|g| flat(&g.tone)).collect();
         grads.extend(flat(&grad.background_tone));
         let lr = vec![self.config.lr_tone; params.len()];
-        self.tone_adam.step(&mut params, &grads, &lr);
+        self.tone_adam.step(&mut params, &grads, &lr, 1.0);
         let tones = params.chunks(TONE_SCALARS).map(|c| Tone {
             shift: Vec3::from_slice(&c[..3]),
             scale: Vec3::from_slice(&c[3..]).max(Vec3::splat(0.05)),

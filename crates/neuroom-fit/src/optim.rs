@@ -19,8 +19,8 @@ impl ScalarAdam {
         }
     }
 
-    /// One step: `params[i] -= lr[i] · m̂ᵢ / (√v̂ᵢ + ε)`.
-    pub fn step(&mut self, params: &mut [f32], grads: &[f32], lr: &[f32]) {
+    /// One step: `params[i] -= factor · lr[i] · m̂ᵢ / (√v̂ᵢ + ε)`.
+    pub fn step(&mut self, params: &mut [f32], grads: &[f32], lr: &[f32], factor: f32) {
         const B1: f32 = 0.9;
         const B2: f32 = 0.999;
         self.step += 1;
@@ -32,7 +32,7 @@ impl ScalarAdam {
             let g = grads[i];
             self.m[i] = B1 * self.m[i] + (1.0 - B1) * g;
             self.v[i] = B2 * self.v[i] + (1.0 - B2) * g * g;
-            params[i] -= lr[i] * self.m[i] * c1 / ((self.v[i] * c2).sqrt() + 1e-8);
+            params[i] -= factor * lr[i] * self.m[i] * c1 / ((self.v[i] * c2).sqrt() + 1e-8);
         }
     }
 }

@@ -84,11 +84,11 @@ impl Probe {
             Target::Object(j) => Some(&scene.objects[j]),
         };
         let r_target = posed.map(|t| t.rotation());
-        for k in 0..self.sdf.len() {
-            if d_sdf[k] == 0.0 {
+        for (k, &d) in d_sdf.iter().enumerate().take(self.sdf.len()) {
+            if d == 0.0 {
                 continue;
             }
-            let g = self.gradient[k] * d_sdf[k];
+            let g = self.gradient[k] * d;
             let g_world = match (posed, r_target) {
                 (Some(t), Some(r)) => {
                     g_target.add_observed_point(r, self.world[k] - t.translation, g)

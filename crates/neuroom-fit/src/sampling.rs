@@ -141,3 +141,58 @@ impl PixelSampler {
         out.extend((0..n_background).filter_map(|_| self.background.draw(rng)));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+    use rand::SeedableRng;
+    use rand_pcg::Pcg64Mcg;
+
+    #[test]
+    fn dilation_is_a_square_window_that_wraps_in_longitude() {
+        let (w, h) = (8, 6);
+        let mut mask = vec![false; w * h];
+        mask[2 * w] = true;
+        let d = dilate(&mask, w, 2);
+        let set: Vec<(usize, usize)> = (0..w * h)
+            .filter(|&i| d[i])
+            .map(|i| (i % w, i / w))
+            .collect();
+        assert_eq!(set.len(), 25);
+        assert!(set.contains(&(6, 0)) && set.contains(&(2, 4)) && !set.contains(&(3, 2)));
+    }
+
+    #[test]
+    fn draws_are_seeded_split_by_the_mask_and_biased_to_the_equator() {
+        let camera = Equirect::new(64, 32).unwrap();
+        let pose = Pose::new(glam::DMat3::IDENTITY, DVec3::new(0.0, 0.0, 1.0));
+        let object = SceneObject::new(
+            0,
+            1,
+            &Pose::new(glam::DMat3::IDENTITY, DVec3::new(2.0, 0.0, 1.0)),
+            Vec3::splat(0.5),
+        );
+        let mask = object_mask(&camera, &pose, &[object], 0.0);
+        // The box subtends ±14° around the centre column.
+        assert!(mask[16 * 64 + 32] && !mask[16 * 64] && !mask[2 * 64 + 32]);
+        let sampler = PixelSampler::new(&camera, &mask);
+        let draw = |seed| {
+            let mut out = Vec::new();
+            sampler.draw(100, 4000, &mut Pcg64Mcg::seed_from_u64(seed), &mut out);
+            out
+        };
+        let (a, b) = (draw(3), draw(3));
+        assert_eq!(a, b);
+        assert!(a[..100].iter().all(|&p| mask[p as usize]));
+        assert!(a[100..].iter().all(|&p| !mask[p as usize]));
+        let rows = |lo: u32, hi: u32| {
+            a[100..]
+                .iter()
+                .filter(|&&p| (lo..hi).contains(&(p / 64)))
+                .count()
+        };
+        // Polar bands (cos lat ≈ 0.1) get far fewer draws than equatorial ones of equal pixel count.
+        assert!(rows(0, 2) * 4 < rows(15, 17));
+    }
+}

@@ -38,7 +38,11 @@ impl Face {
     fn axis_sign(self) -> (usize, f32) {
         (
             self as usize / 2,
-            if self as usize % 2 == 0 { -1.0 } else { 1.0 },
+            if (self as usize).is_multiple_of(2) {
+                -1.0
+            } else {
+                1.0
+            },
         )
     }
 }

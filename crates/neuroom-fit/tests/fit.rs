@@ -1,12 +1,14 @@
 //! The whole fit on an analytic room: cuboids in a room shell, the panorama rendered by the renderer at
 //! the true poses, initial poses = truth + the benchmark's noise (±25 cm, ±20° yaw, ±5° tilt).
 
-use neuroom_core::metrics::ArrangementScore;
+use glam::Vec3;
+use neuroom_core::metrics::{ArrangementScore, psnr};
 use neuroom_fit::bench::{CaseReport, PoseNoise, analytic_room, run_case};
 use neuroom_fit::probe::Target;
 use neuroom_fit::relations::{Relation, generate_relations};
 use neuroom_fit::surface::Face;
-use neuroom_fit::{FitConfig, fit};
+use neuroom_fit::{FitConfig, fit, render_panorama};
+use neuroom_render::Tone;
 
 fn config() -> FitConfig {
     FitConfig {
@@ -148,4 +150,42 @@ fn previews_and_log_come_back() {
     assert_eq!(result.before.as_ref().map(|b| b.width), Some(32));
     assert!(result.after.is_some());
     assert!(!result.relations.is_empty());
+}
+
+/// Stage 2: the panorama was taken under another light (every tone changed); with the poses right,
+/// adapting the tone adjusters brings the re-rendering back to the panorama.
+#[test]
+fn appearance_stage_adapts_tones_to_the_panorama() {
+    let config = FitConfig {
+        pose_iterations: 0,
+        appearance_iterations: 150,
+        preview_height: Some(64),
+        lr_tone: 2e-2,
+        ..config()
+    };
+    let room = analytic_room(3, 100.0, 64, &config);
+    let mut lit = room.scene.clone();
+    lit.background.tone = Tone {
+        shift: Vec3::new(0.05, -0.03, 0.0),
+        scale: Vec3::new(0.8, 0.9, 1.15),
+    };
+    for o in &mut lit.objects {
+        o.tone.scale = Vec3::new(1.2, 0.85, 0.9);
+    }
+    let panorama = render_panorama(&lit, &room.camera_to_world, 64, &config);
+    let init: Vec<_> = room.objects.iter().map(|o| o.truth.clone()).collect();
+    let result = fit(
+        room.scene.clone(),
+        &room.room,
+        &panorama,
+        &room.camera_to_world,
+        &init,
+        &config,
+        &mut |_| {},
+    )
+    .unwrap();
+    let before = psnr(result.before.as_ref().unwrap(), &panorama);
+    let after = psnr(result.after.as_ref().unwrap(), &panorama);
+    println!("PSNR before {before:.1} dB, after {after:.1} dB");
+    assert!(after > before + 8.0);
 }
