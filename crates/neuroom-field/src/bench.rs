@@ -2,9 +2,12 @@
 //!
 //! One step = full forward (SDF, analytic normal, colour) of `n` points uniform in the field's box, then the
 //! full backward (every parameter gradient, hash tables included, with position gradients off). The FLOP
-//! count per point counts the multiply–adds of the dense layers (×2) — forward, the normal's input-only
-//! backward through the SDF network, and the backward's weight and input gradients — plus the hash grid's
-//! trilinear interpolation, Jacobian and scatter.
+//! count per point is the model's nominal count: the multiply–adds of the dense layers (×2) — forward, the
+//! normal's input-only backward through the SDF network, and the backward's weight and input gradients —
+//! plus the hash grid's trilinear interpolation, Jacobian and scatter. The implementation executes about a
+//! fifth less (the appearance and light codes enter the colour network once per run of points sharing
+//! them, and input gradients stop at the columns that need one), so `gflops_fwd_bwd` and
+//! `fraction_of_peak` are effective figures: the rate at which the nominal work gets done.
 
 use crate::batch::Tape;
 use crate::neus::{CodeSet, NeusConfig, NeusField, Outputs};
