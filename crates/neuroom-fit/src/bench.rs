@@ -11,7 +11,7 @@ use glam::{DMat3, DVec3, Vec3};
 use neuroom_core::Pose;
 use neuroom_core::image::RgbImage;
 use neuroom_core::metrics::{ArrangementScore, GtObject, PredictedObject, evaluate_arrangement};
-use neuroom_field::{AnalyticColor, AnalyticField};
+use neuroom_field::{AnalyticColor, AnalyticField, NeusConfig, NeusField};
 use neuroom_render::{Background, InstanceCodes, Model, Scene, SceneObject, Tone};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -156,12 +156,12 @@ pub fn run_case<F: FitField>(
     })
 }
 
-/// An analytic room for tests and timing: its scene, free-space box, camera, ground truth and
-/// panorama (rendered at the true poses).
+/// A room for tests and timing: its scene, free-space box, camera, ground truth and panorama (rendered
+/// at the true poses).
 #[derive(Clone, Debug)]
-pub struct AnalyticRoom {
-    /// Room shell and cuboids at their true poses.
-    pub scene: Scene<AnalyticField>,
+pub struct BenchRoom<F> {
+    /// Room and objects at their true poses.
+    pub scene: Scene<F>,
     /// The free space.
     pub room: RoomBox,
     /// Panorama camera pose.
@@ -221,7 +221,12 @@ fn cuboid_specs() -> [(Vec3, Vec3, f32, f32, Vec<Hint>); 5] {
 
 /// A room shell with `n ≤ 5` cuboids rendered at NeuS sharpness `inv_s`, seen from (0, 0, 1.4) by a
 /// panorama of `height` rows.
-pub fn analytic_room(n: usize, inv_s: f32, height: u32, config: &FitConfig) -> AnalyticRoom {
+pub fn analytic_room(
+    n: usize,
+    inv_s: f32,
+    height: u32,
+    config: &FitConfig,
+) -> BenchRoom<AnalyticField> {
     let centre = (ROOM_MIN + ROOM_MAX) / 2.0;
     let half = (ROOM_MAX - ROOM_MIN) / 2.0;
     let shell = AnalyticField::RoomShell {
@@ -277,7 +282,7 @@ pub fn analytic_room(n: usize, inv_s: f32, height: u32, config: &FitConfig) -> A
     };
     let camera_to_world = Pose::new(DMat3::IDENTITY, DVec3::new(0.0, 0.0, 1.4));
     let panorama = render_panorama(&scene, &camera_to_world, height, config);
-    AnalyticRoom {
+    BenchRoom {
         scene,
         room: RoomBox {
             min: ROOM_MIN,
@@ -285,6 +290,33 @@ pub fn analytic_room(n: usize, inv_s: f32, height: u32, config: &FitConfig) -> A
         },
         camera_to_world,
         objects: truth,
+        panorama,
+    }
+}
+
+/// The layout of [`analytic_room`] with untrained NeuS fields of the default sizes (each its analytic
+/// base: a sphere per object, an inside-out sphere for the room): the network cost of a fit with trained
+/// models, for timing runs that have none.
+pub fn untrained_neus_room(n: usize, height: u32, config: &FitConfig) -> BenchRoom<NeusField> {
+    let analytic = analytic_room(n, 1.0, 1, config);
+    let room_field = NeusField::new(NeusConfig::room(ROOM_MIN.to_array(), ROOM_MAX.to_array()));
+    let mut models = vec![Model::neus(room_field)];
+    models.extend(analytic.scene.objects.iter().map(|o| {
+        Model::neus(NeusField::new(NeusConfig::object(
+            o.half_extents.to_array(),
+        )))
+    }));
+    let scene = Scene {
+        models,
+        background: analytic.scene.background,
+        objects: analytic.scene.objects,
+    };
+    let panorama = render_panorama(&scene, &analytic.camera_to_world, height, config);
+    BenchRoom {
+        scene,
+        room: analytic.room,
+        camera_to_world: analytic.camera_to_world,
+        objects: analytic.objects,
         panorama,
     }
 }
