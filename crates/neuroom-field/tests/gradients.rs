@@ -476,3 +476,90 @@ fn eikonal_loss_gradients() {
         }
     }
 }
+
+/// `Mlp::forward_split` / `backward_split`: input columns 2..4 are supplied through the first layer's
+/// pre-activation by the caller; the weight gradient of the other rows, the input gradient of columns 0..2
+/// and (through `first_layer_delta`) the shared rows' gradient must match finite differences.
+#[test]
+fn mlp_split_gradients() {
+    let mlp = Mlp::new(MlpConfig {
+        input: 6,
+        hidden: vec![5],
+        output: 3,
+        hidden_activation: Activation::Softplus { beta: 2.0 },
+        output_activation: Activation::Sigmoid,
+    });
+    let (n, h, shared) = (4, 5, 2..4);
+    let mut rng = SplitMix::new(9);
+    let mut params = random(&mut rng, mlp.num_params(), 0.5);
+    let mut input = random(&mut rng, n * 6, 1.0);
+    let c = random(&mut rng, n * 3, 1.0);
+    let mut ws = mlp.workspace(n);
+    let run = |params: &[f64], input: &[f64], ws: &mut neuroom_field::mlp::MlpWorkspace<f64>| {
+        let (pre, ps) = ws.first_layer_mut();
+        for p in 0..n {
+            for j in 0..h {
+                let shared_sum: f64 = shared
+                    .clone()
+                    .map(|r| input[p * 6 + r] * params[r * h + j])
+                    .sum();
+                pre[p * ps + j] = params[6 * h + j] + shared_sum;
+            }
+        }
+        let rest: Vec<f64> = (0..n)
+            .flat_map(|p| [0, 1, 4, 5].map(|r| input[p * 6 + r]))
+            .collect();
+        mlp.forward_split(params, &rest, 4, n, ws, shared.clone());
+        rest
+    };
+    let loss = |params: &[f64], input: &[f64], ws: &mut neuroom_field::mlp::MlpWorkspace<f64>| {
+        run(params, input, ws);
+        let (out, stride) = ws.output();
+        (0..n * 3)
+            .map(|i| out[(i / 3) * stride + i % 3] * c[i])
+            .sum::<f64>()
+    };
+    let rest = run(&params, &input, &mut ws);
+    let mut grads = vec![0.0; params.len()];
+    let mut d_in = vec![0.0; n * 2];
+    mlp.backward_split(
+        &params,
+        (&rest, 4),
+        n,
+        &mut ws,
+        (&c, 3),
+        Some(&mut grads),
+        Some((&mut d_in, 2)),
+        shared.clone(),
+    );
+    let (delta, ds) = ws.first_layer_delta();
+    for r in shared.clone() {
+        for j in 0..h {
+            grads[r * h + j] = (0..n).map(|p| input[p * 6 + r] * delta[p * ds + j]).sum();
+        }
+    }
+    for i in 0..params.len() {
+        let v = params[i];
+        params[i] = v + EPS;
+        let lp = loss(&params, &input, &mut ws);
+        params[i] = v - EPS;
+        let lm = loss(&params, &input, &mut ws);
+        params[i] = v;
+        assert_close(&format!("param {i}"), grads[i], (lp - lm) / (2.0 * EPS));
+    }
+    for p in 0..n {
+        for col in 0..2 {
+            let v = input[p * 6 + col];
+            input[p * 6 + col] = v + EPS;
+            let lp = loss(&params, &input, &mut ws);
+            input[p * 6 + col] = v - EPS;
+            let lm = loss(&params, &input, &mut ws);
+            input[p * 6 + col] = v;
+            assert_close(
+                &format!("input[{p}][{col}]"),
+                d_in[p * 2 + col],
+                (lp - lm) / (2.0 * EPS),
+            );
+        }
+    }
+}
