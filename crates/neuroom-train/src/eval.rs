@@ -311,6 +311,36 @@ pub struct LightCodeCheck {
     pub psnr_with_code_0_db: f64,
 }
 
+/// The light-code check on `view`: each augmentation map's re-lit image against renders with the map's
+/// code and with code 0 (rendered once).
+fn light_code_checks(
+    field: &NeusField<f32>,
+    view: &View,
+    bounds: &Aabb,
+    augmentation: &Augmentation,
+    first_augmented: usize,
+    options: &RenderOptions,
+) -> Vec<LightCodeCheck> {
+    let surface = |i: usize| view.class[i] == PixelClass::Surface;
+    let psnr = |rgb: &[[f32; 3]], target: &[[f32; 3]]| {
+        let s = color_error(view, rgb, target);
+        psnr_of(s.squared_error / s.count.max(1) as f64)
+    };
+    let plain = render_view(field, view, bounds, 0, options, &surface);
+    (0..augmentation.len())
+        .map(|k| {
+            let target = relit_target(view, augmentation, k);
+            let code = (first_augmented + k) as u32;
+            let coded = render_view(field, view, bounds, code, options, &surface);
+            LightCodeCheck {
+                name: augmentation.names[k].clone(),
+                psnr_with_code_db: psnr(&coded.rgb, &target),
+                psnr_with_code_0_db: psnr(&plain.rgb, &target),
+            }
+        })
+        .collect()
+}
+
 /// Renders every held-out view with its own light code and scores it; then runs the light-code check
 /// (augmentation map `k` has light code `first_augmented + k`).
 pub fn evaluate(
@@ -338,22 +368,9 @@ pub fn evaluate(
         }
     }
     let light_codes = match views.first() {
-        Some(view) => (0..augmentation.len())
-            .map(|k| {
-                let surface = |i: usize| view.class[i] == PixelClass::Surface;
-                let target = relit_target(view, augmentation, k);
-                let score = |code: usize| {
-                    let r = render_view(field, view, bounds, code as u32, &options, &surface);
-                    let s = color_error(view, &r.rgb, &target);
-                    psnr_of(s.squared_error / s.count.max(1) as f64)
-                };
-                LightCodeCheck {
-                    name: augmentation.names[k].clone(),
-                    psnr_with_code_db: score(first_augmented + k),
-                    psnr_with_code_0_db: score(0),
-                }
-            })
-            .collect(),
+        Some(view) => {
+            light_code_checks(field, view, bounds, augmentation, first_augmented, &options)
+        }
         None => Vec::new(),
     };
     EvalReport {
