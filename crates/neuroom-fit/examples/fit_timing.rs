@@ -2,20 +2,22 @@
 //! fields (the network cost of trained ones) in the analytic room's layout, from the benchmark's noise.
 //! Untrained fields carry no photometric signal, so only the time means anything here.
 //!
-//! `RAYON_NUM_THREADS=2 cargo run --release -p neuroom-fit --example fit_timing [iterations]`
+//! `RAYON_NUM_THREADS=2 cargo run --release -p neuroom-fit --example fit_timing [pose_its] [light_its]`
 
 use neuroom_fit::FitConfig;
 use neuroom_fit::bench::{PoseNoise, run_case, untrained_neus_room};
 
 fn main() {
-    let iterations = std::env::args()
-        .nth(1)
-        .and_then(|a| a.parse().ok())
-        .unwrap_or(500);
+    let arg = |k: usize, default: usize| {
+        std::env::args()
+            .nth(k)
+            .and_then(|a| a.parse().ok())
+            .unwrap_or(default)
+    };
     let config = FitConfig {
         rays: 1024,
-        pose_iterations: iterations,
-        appearance_iterations: 0,
+        pose_iterations: arg(1, 500),
+        appearance_iterations: arg(2, 0),
         preview_height: None,
         ..FitConfig::default()
     };
@@ -32,12 +34,12 @@ fn main() {
     )
     .expect("fit");
     println!(
-        "{} iterations of {} rays, {} objects, {} threads: {:.1} s ({:.0} ms per iteration)",
+        "{} + {} iterations of {} rays, {} objects, {} threads: {:.1} s",
         report.pose_iterations,
+        config.appearance_iterations,
         report.rays,
         report.objects,
         rayon::current_num_threads(),
         report.seconds,
-        1e3 * report.seconds / report.pose_iterations.max(1) as f64
     );
 }

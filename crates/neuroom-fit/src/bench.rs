@@ -4,7 +4,7 @@
 //! that need no trained models.
 
 use crate::codes::FitField;
-use crate::config::FitConfig;
+use crate::config::{FitConfig, LossSwitches};
 use crate::fit::{FitError, ObjectInit, fit, render_panorama};
 use crate::relations::{Hint, RoomBox};
 use glam::{DMat3, DVec3, Vec3};
@@ -17,6 +17,24 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
+
+/// The paper's ablation (its Table 1 rows): complete, without photometric, without physical, without
+/// observation, photometric only.
+pub const ABLATIONS: [(&str, LossSwitches); 5] = [
+    ("complete", switches(true, true, true)),
+    ("w/o photometric", switches(false, true, true)),
+    ("w/o physical", switches(true, true, false)),
+    ("w/o observation", switches(true, false, true)),
+    ("photometric only", switches(true, false, false)),
+];
+
+const fn switches(photometric: bool, observation: bool, physical: bool) -> LossSwitches {
+    LossSwitches {
+        photometric,
+        observation,
+        physical,
+    }
+}
 
 /// Noise added to ground-truth poses to make initial estimates (uniform in ±each bound).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -456,6 +456,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
         );
         log.magnetic = magnetic_loss(
             &self.scene,
+            &self.room,
             &self.surfaces,
             &self.relations,
             w.magnetic,

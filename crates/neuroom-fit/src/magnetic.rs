@@ -2,17 +2,22 @@
 //! room's floor or wall, another object's top). The face's surface points probe the target's SDF — the
 //! distance a probing ray along the contact normal travels to the target — and the closest point is pulled
 //! onto it when the two are apart and pushed out when they penetrate: `L = Σ_relations (min_k sdf(x_k))²`.
+//! Against the room, only points whose nearest room surface is the relation's (the floor for a bottom,
+//! a wall for a back) count, since the room's SDF reads whichever surface is nearest.
 
 use crate::pose_grad::PoseGrad;
-use crate::probe::Probe;
-use crate::relations::Relation;
+use crate::probe::{Probe, Target};
+use crate::relations::{Relation, RoomBox};
 use crate::surface::SurfacePoints;
+use glam::Vec3;
 use neuroom_field::Field;
 use neuroom_render::Scene;
 
-/// The loss over `relations`; adds `weight · ∂L/∂pose` into `grads`.
+/// The loss over `relations` in `room`; adds `weight · ∂L/∂pose` into `grads`.
+#[allow(clippy::too_many_arguments)]
 pub fn magnetic_loss<F: Field>(
     scene: &Scene<F>,
+    room: &RoomBox,
     surfaces: &[SurfacePoints],
     relations: &[Relation],
     weight: f32,
@@ -24,10 +29,13 @@ pub fn magnetic_loss<F: Field>(
     for rel in relations {
         let points = surfaces[rel.object].on(rel.face);
         probe.evaluate(scene, rel.object, points, rel.target);
+        let counts =
+            |x: &Vec3| rel.target != Target::Room || room.nearest_is_contact_of(rel.face, *x);
         let Some((k, &gap)) = probe
             .sdf
             .iter()
             .enumerate()
+            .filter(|(k, _)| counts(&probe.world()[*k]))
             .min_by(|a, b| a.1.total_cmp(b.1))
         else {
             continue;

@@ -67,6 +67,11 @@ impl Probe {
         field.sdf_gradient(&self.query, &mut self.sdf, &mut self.gradient);
     }
 
+    /// The source points of the last [`Probe::evaluate`] in the world.
+    pub fn world(&self) -> &[Vec3] {
+        &self.world
+    }
+
     /// Carries `d_sdf[k] = ∂loss/∂sdf[k]` of the last [`Probe::evaluate`] to the pose gradients of the
     /// source and (for an object target) the target.
     pub fn backward<F: Field>(

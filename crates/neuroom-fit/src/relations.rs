@@ -18,6 +18,25 @@ pub struct RoomBox {
     pub max: Vec3,
 }
 
+impl RoomBox {
+    /// Whether the room surface nearest to world point `x` is the one a contact on `face` means: the
+    /// floor for a bottom, a wall for a back. The room's SDF is the distance to its nearest surface, so
+    /// a bottom point near a wall (or a back point near the floor) would read the wrong one.
+    pub fn nearest_is_contact_of(&self, face: Face, x: Vec3) -> bool {
+        let floor = x.z - self.min.z;
+        let ceiling = self.max.z - x.z;
+        let wall = (x.x - self.min.x)
+            .min(self.max.x - x.x)
+            .min(x.y - self.min.y)
+            .min(self.max.y - x.y);
+        match face {
+            Face::Bottom => floor <= wall && floor <= ceiling,
+            Face::Back => wall < floor && wall <= ceiling,
+            _ => true,
+        }
+    }
+}
+
 /// A hint from room.json's `relations` of one object.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Hint {
@@ -171,4 +190,25 @@ pub fn generate_relations(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn room_contacts_read_the_intended_surface() {
+        let room = RoomBox {
+            min: Vec3::new(-3.0, -2.5, 0.0),
+            max: Vec3::new(3.0, 2.5, 3.0),
+        };
+        // Low on a back against the +y wall: the wall, not the floor, is what the back touches.
+        let low_back = Vec3::new(0.0, 2.5, 0.05);
+        assert!(!room.nearest_is_contact_of(Face::Bottom, low_back));
+        assert!(room.nearest_is_contact_of(Face::Bottom, Vec3::new(0.0, 2.4, 0.0)));
+        assert!(room.nearest_is_contact_of(Face::Back, Vec3::new(0.0, 2.49, 0.3)));
+        assert!(!room.nearest_is_contact_of(Face::Back, Vec3::new(0.0, 1.0, 0.02)));
+        assert_eq!(Hint::parse("on:bed"), Some(Hint::On("bed".into())));
+        assert_eq!(Hint::parse("ceiling"), None);
+    }
 }

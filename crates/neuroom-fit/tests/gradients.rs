@@ -9,12 +9,16 @@ use neuroom_fit::observation::{observation_loss, view_directions};
 use neuroom_fit::photometric::photometric_loss;
 use neuroom_fit::pose_grad::PoseGrad;
 use neuroom_fit::probe::{Probe, Target};
-use neuroom_fit::relations::Relation;
+use neuroom_fit::relations::{Relation, RoomBox};
 use neuroom_fit::surface::{Face, SurfacePoints, sample_surface};
 use neuroom_fit::violation::violation_loss;
 use neuroom_render::volume::RayOutput;
 use neuroom_render::{Background, InstanceCodes, Model, Scene, SceneObject, Tone};
 
+const ROOM: RoomBox = RoomBox {
+    min: Vec3::new(-3.0, -2.5, 0.0),
+    max: Vec3::new(3.0, 2.5, 3.0),
+};
 const GREY: AnalyticColor = AnalyticColor::Constant(Vec3::splat(0.5));
 
 /// Room shell (floor at 0), a tilted box (object 0) and a sphere (object 1) that it slightly penetrates.
@@ -236,6 +240,7 @@ fn magnetic_gradient_matches_finite_differences() {
     let run = |sc: &Scene<AnalyticField>, g: &mut [PoseGrad]| {
         magnetic_loss(
             sc,
+            &ROOM,
             &surf,
             &relations,
             2.0,
