@@ -119,6 +119,36 @@ pub struct FittedObject {
     pub light_code: Vec<f32>,
 }
 
+/// One solved object as written beside an arrangement (FORMAT.md lets outputs add fields).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FittedObjectReport {
+    /// Its id.
+    pub id: u16,
+    /// Solved `object_to_world`, 4 rows of 4.
+    pub object_to_world: [[f64; 4]; 4],
+    /// Solved tone adjuster.
+    pub tone: Tone,
+    /// Light code row after adaptation.
+    pub light_code: Vec<f32>,
+}
+
+/// The serialisable part of a [`FitResult`]: solution, relations, loss log and timings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitReport {
+    /// The solved objects.
+    pub objects: Vec<FittedObjectReport>,
+    /// Background tone adjuster.
+    pub background_tone: Tone,
+    /// Background light code row.
+    pub background_light_code: Vec<f32>,
+    /// Relations held at the end.
+    pub relations: Vec<Relation>,
+    /// Losses per iteration.
+    pub log: Vec<IterationLog>,
+    /// Time spent.
+    pub timings: FitTimings,
+}
+
 /// What a fit returns.
 #[derive(Clone, Debug)]
 pub struct FitResult<F> {
@@ -140,6 +170,29 @@ pub struct FitResult<F> {
     pub after: Option<RgbImage>,
     /// The solved scene (poses, tones, adapted code rows).
     pub scene: Scene<F>,
+}
+
+impl<F> FitResult<F> {
+    /// The solution, relations, log and timings as one serialisable report.
+    pub fn report(&self) -> FitReport {
+        FitReport {
+            objects: self
+                .objects
+                .iter()
+                .map(|o| FittedObjectReport {
+                    id: o.id,
+                    object_to_world: o.pose.to_rows(),
+                    tone: o.tone,
+                    light_code: o.light_code.clone(),
+                })
+                .collect(),
+            background_tone: self.background_tone,
+            background_light_code: self.background_light_code.clone(),
+            relations: self.relations.clone(),
+            log: self.log.clone(),
+            timings: self.timings,
+        }
+    }
 }
 
 /// Renders a panorama of `scene` with `height` rows from `camera_to_world`.

@@ -3,7 +3,8 @@
 //! by optimising through the compositional renderer ([`neuroom_render::Renderer`]).
 //!
 //! - [`fit()`]: the entry point (stage 1 poses, stage 2 lighting), with [`FitConfig`] and its ablation
-//!   switches, returning a [`FitResult`] (solution, loss log, timings, before/after previews).
+//!   switches, returning a [`FitResult`] (solution, loss log, timings, before/after previews; its
+//!   [`FitResult::report`] is the serialisable part).
 //! - Losses, each a forward/backward pair with a finite-difference test: [`photometric`] (joint rendering
 //!   vs pixels), [`observation`] (viewing directions), [`magnetic`] (relation contacts), [`violation`]
 //!   (penetration of neighbours and the room), [`gravity`] (upright objects).
@@ -32,7 +33,7 @@ pub mod violation;
 pub use codes::FitField;
 pub use config::{FitConfig, LossSwitches, LossWeights};
 pub use fit::{
-    FitError, FitResult, FitTimings, FittedObject, Fitter, IterationLog, ObjectInit, Stage, fit,
-    render_panorama,
+    FitError, FitReport, FitResult, FitTimings, FittedObject, FittedObjectReport, Fitter,
+    IterationLog, ObjectInit, Stage, fit, render_panorama,
 };
 pub use relations::{Hint, Relation, RelationRules, RoomBox};

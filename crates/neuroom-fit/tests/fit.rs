@@ -150,6 +150,11 @@ fn previews_and_log_come_back() {
     assert_eq!(result.before.as_ref().map(|b| b.width), Some(32));
     assert!(result.after.is_some());
     assert!(!result.relations.is_empty());
+    let json = serde_json::to_string(&result.report()).unwrap();
+    let back: neuroom_fit::FitReport = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.log, result.report().log);
+    assert_eq!(back.relations, result.relations);
+    assert_eq!(back.objects.len(), 2);
 }
 
 /// Stage 2: the panorama was taken under another light (every tone changed); with the poses right,
