@@ -289,9 +289,9 @@ pub struct Fitter<'a, F: FitField> {
     camera: Equirect,
     camera_to_world: Pose,
     config: FitConfig,
-    init: Vec<ObjectInit>,
     names: Vec<String>,
     hints: Vec<Vec<Hint>>,
+    upright: Vec<bool>,
     initial_dirs: Vec<Vec3>,
     surfaces: Vec<SurfacePoints>,
     relations: Vec<Relation>,
@@ -363,6 +363,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
             config: *config,
             names: init.iter().map(|i| i.name.clone()).collect(),
             hints: init.iter().map(|i| i.hints.clone()).collect(),
+            upright: init.iter().map(|i| i.upright).collect(),
             initial_dirs: view_directions(&scene.objects, camera_pos),
             surfaces,
             relations: Vec::new(),
@@ -383,7 +384,6 @@ impl<'a, F: FitField> Fitter<'a, F> {
             pose_lr,
             tone_adam: ScalarAdam::new((n + 1) * TONE_SCALARS),
             code_adams: scene.models.iter().map(|_| None).collect(),
-            init,
             scene,
         };
         if fitter.config.yaw_only_upright {
@@ -438,8 +438,10 @@ impl<'a, F: FitField> Fitter<'a, F> {
     }
 
     /// Renders the drawn rays and back-propagates the photometric loss; returns the loss and the scene
-    /// gradient (code gradients land in `model_grads`).
-    fn photometric(&mut self, iteration: usize) -> (f32, neuroom_render::SceneGrad) {
+    /// gradient. Code gradients land in `model_grads`, zeroed first only when `codes` are wanted (stage
+    /// 1 leaves them to accumulate unread: zeroing a room's hash-table gradient costs more per iteration
+    /// than the losses).
+    fn photometric(&mut self, iteration: usize, codes: bool) -> (f32, neuroom_render::SceneGrad) {
         self.draw_rays();
         self.renderer.config_mut().seed = iteration as u64;
         let out = self.renderer.render(&self.scene, &self.rays);
@@ -449,7 +451,9 @@ impl<'a, F: FitField> Fitter<'a, F> {
             self.config.weights.photometric,
             &mut self.d_out,
         );
-        self.model_grads.iter_mut().for_each(Params::fill_zero);
+        if codes {
+            self.model_grads.iter_mut().for_each(Params::fill_zero);
+        }
         let grad = self
             .renderer
             .backward(&self.scene, &self.d_out, &mut self.model_grads);
@@ -464,7 +468,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
         let mut log = self.empty_log(iteration, Stage::Poses);
         pose_grad::reset(&mut self.pose_grads, self.scene.objects.len());
         let render_grad = if self.config.losses.photometric {
-            let (loss, grad) = self.photometric(iteration);
+            let (loss, grad) = self.photometric(iteration, false);
             log.photometric = loss;
             Some(grad)
         } else {
@@ -495,8 +499,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
         if !on.physical {
             return;
         }
-        let upright: Vec<bool> = self.init.iter().map(|i| i.upright).collect();
-        log.gravity = gravity_loss(objects, &upright, w.gravity, &mut self.pose_grads);
+        log.gravity = gravity_loss(objects, &self.upright, w.gravity, &mut self.pose_grads);
         log.violation = violation_loss(
             &self.scene,
             &self.surfaces,
@@ -561,8 +564,8 @@ impl<'a, F: FitField> Fitter<'a, F> {
 
     /// Replaces the rotation of every upright object by the yaw-only rotation nearest in heading.
     fn project_upright(&mut self) {
-        for (o, i) in self.scene.objects.iter_mut().zip(&self.init) {
-            if i.upright {
+        for (o, &upright) in self.scene.objects.iter_mut().zip(&self.upright) {
+            if upright {
                 let x = o.rotation().x_axis;
                 let heading = Vec3::new(x.x, x.y, 0.0).normalize_or(Vec3::X);
                 let r = Mat3::from_cols(heading, Vec3::Z.cross(heading), Vec3::Z);
@@ -574,7 +577,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
     /// One iteration of stage 2 (tone adjusters and code rows; poses frozen).
     pub fn appearance_step(&mut self, iteration: usize) -> IterationLog {
         let mut log = self.empty_log(iteration, Stage::Appearance);
-        let (loss, grad) = self.photometric(iteration);
+        let (loss, grad) = self.photometric(iteration, true);
         log.photometric = loss;
         self.step_tones(&grad);
         self.step_codes();
