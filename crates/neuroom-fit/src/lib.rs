@@ -13,6 +13,22 @@
 //! - [`relations`]: support and wall relations from rules and room.json hints; [`sampling`]: the
 //!   object-mask and latitude-biased choice of pixels; [`optim`]: Adam over scalars; [`codes`]: the code
 //!   rows a field exposes to stage 2; [`bench`]: noisy initialisations and scores for `neuroom bench fit`.
+//!
+//! ```
+//! use neuroom_fit::bench::analytic_room;
+//! use neuroom_fit::{FitConfig, fit};
+//!
+//! let config = FitConfig { pose_iterations: 5, appearance_iterations: 2, ..FitConfig::default() };
+//! // A room shell with two cuboids; its panorama rendered at the true poses.
+//! let room = analytic_room(2, 100.0, 32, &config);
+//! let init: Vec<_> = room.objects.iter().map(|o| o.truth.clone()).collect();
+//! let result = fit(
+//!     room.scene, &room.room, &room.panorama, &room.camera_to_world, &init, &config, &mut |_| {},
+//! )
+//! .unwrap();
+//! assert_eq!(result.objects.len(), 2);
+//! assert_eq!(result.log.len(), 7);
+//! ```
 
 pub mod bench;
 pub mod codes;
