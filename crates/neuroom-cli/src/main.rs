@@ -21,6 +21,7 @@ enum Command {
     Info(commands::info::Args),
     Train(commands::train::Args),
     Render(commands::render::Args),
+    Fit(commands::fit::Args),
     Bench(commands::bench::Args),
 }
 
@@ -32,6 +33,7 @@ fn main() {
         Command::Info(args) => commands::info::run(args),
         Command::Train(args) => commands::train::run(args),
         Command::Render(args) => commands::render::run(args),
+        Command::Fit(args) => commands::fit::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };
     if let Err(e) = result {

@@ -4,6 +4,7 @@
 
 pub mod bench;
 pub mod demo;
+pub mod fit;
 pub mod inspect;
 pub mod scene;
 pub mod synth;

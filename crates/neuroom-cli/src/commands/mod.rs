@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod demo;
+pub mod fit;
 pub mod info;
 pub mod render;
 pub mod synth;

@@ -1,0 +1,143 @@
+//! `neuroom fit`: solve the poses, tone adjusters and light codes that explain a panorama, starting from
+//! initial poses, through the trained room (the paper's holistic optimisation).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use glam::Vec3;
+use neuroom_core::formats::{self, Arrangement, read_arrangement, read_rgb, read_room};
+use neuroom_fit::{FitConfig, FitReport, Hint, IterationLog, ObjectInit, RoomBox, fit};
+
+use crate::scene::{build_scene, load_models};
+
+/// What a fit wrote.
+#[derive(Clone, Debug)]
+pub struct FitOutputs {
+    /// The solved arrangement (FORMAT.md, with tone adjusters and light codes per object).
+    pub arrangement: PathBuf,
+    /// The fit report: losses per iteration, relations, timings.
+    pub report: PathBuf,
+    /// Panorama rendered at the initial poses.
+    pub before: PathBuf,
+    /// Panorama rendered at the solved poses.
+    pub after: PathBuf,
+}
+
+/// Fits the models in `models` to `panorama` from the arrangement `init` (camera and initial poses) and
+/// writes the solved arrangement to `out`, its report to `<out stem>.fit.json` and before/after renders
+/// beside it. With `room`, its relation hints (`floor`, `wall`, `on:<name>`) seed the relations.
+pub fn fit_panorama(
+    models: &Path,
+    panorama: &Path,
+    init: &Path,
+    room: Option<&Path>,
+    out: &Path,
+    config: &FitConfig,
+    progress: &mut dyn FnMut(&IterationLog),
+) -> anyhow::Result<(FitOutputs, FitReport)> {
+    let image = read_rgb(panorama)?.image;
+    let start = read_arrangement(init)?;
+    let hints = match room {
+        Some(r) => room_hints(r)?,
+        None => Vec::new(),
+    };
+    let loaded = load_models(models)?;
+    let room_box = loaded
+        .manifest
+        .room_box
+        .map(|b| RoomBox {
+            min: Vec3::from(b.min),
+            max: Vec3::from(b.max),
+        })
+        .context("the model folder's manifest has no room box")?;
+    let inits = object_inits(&start, &hints);
+    let scene = build_scene(loaded, &start)?;
+    let result = fit(
+        scene,
+        &room_box,
+        &image,
+        &start.camera_to_world,
+        &inits,
+        config,
+        progress,
+    )?;
+    let report = result.report();
+    let outputs = output_paths(out);
+    formats::write_arrangement(out, &solved_arrangement(&start, &report, panorama))?;
+    formats::atomic_write(&outputs.report, &serde_json::to_vec_pretty(&report)?)?;
+    if let (Some(before), Some(after)) = (&result.before, &result.after) {
+        formats::write_rgb(&outputs.before, before)?;
+        formats::write_rgb(&outputs.after, after)?;
+    }
+    Ok((outputs, report))
+}
+
+/// Relation hints per object name from room.json.
+fn room_hints(room: &Path) -> anyhow::Result<Vec<(String, Vec<Hint>)>> {
+    let room = read_room(room)?;
+    Ok(room
+        .objects
+        .iter()
+        .map(|o| {
+            (
+                o.name.clone(),
+                o.relations.iter().filter_map(|r| Hint::parse(r)).collect(),
+            )
+        })
+        .collect())
+}
+
+fn object_inits(start: &Arrangement, hints: &[(String, Vec<Hint>)]) -> Vec<ObjectInit> {
+    start
+        .objects
+        .iter()
+        .map(|o| ObjectInit {
+            id: o.id,
+            name: o.name.clone(),
+            pose: o.object_to_world,
+            upright: true,
+            hints: hints
+                .iter()
+                .find(|(n, _)| *n == o.name)
+                .map(|(_, h)| h.clone())
+                .unwrap_or_default(),
+        })
+        .collect()
+}
+
+/// The initial arrangement with the solved poses, tone adjusters and light codes.
+fn solved_arrangement(start: &Arrangement, report: &FitReport, panorama: &Path) -> Arrangement {
+    let mut solved = start.clone();
+    solved.image = panorama
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    for o in &mut solved.objects {
+        if let Some(r) = report.objects.iter().find(|r| r.id == o.id) {
+            o.object_to_world = neuroom_core::Pose::from_rows_unchecked(&r.object_to_world);
+            o.extra.insert(
+                "tone".into(),
+                serde_json::to_value(r.tone).unwrap_or_default(),
+            );
+            o.extra.insert(
+                "light_code".into(),
+                serde_json::to_value(&r.light_code).unwrap_or_default(),
+            );
+        }
+    }
+    solved
+}
+
+fn output_paths(out: &Path) -> FitOutputs {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "fit".into());
+    let sibling = |suffix: &str| out.with_file_name(format!("{stem}{suffix}"));
+    FitOutputs {
+        arrangement: out.to_path_buf(),
+        report: sibling(".fit.json"),
+        before: sibling(".before.png"),
+        after: sibling(".after.png"),
+    }
+}
