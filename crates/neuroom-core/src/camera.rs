@@ -356,7 +356,6 @@ mod tests {
         assert!((pose.rotation.determinant() - 1.0).abs() < 1e-12);
     }
 
-
     fn distorted() -> Pinhole {
         Pinhole::new(320, 240, 260.0, 250.0, 161.0, 118.5)
             .with_distortion(-0.12, 0.03, 0.001, -0.002)

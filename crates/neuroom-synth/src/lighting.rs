@@ -156,7 +156,9 @@ impl Environment {
     /// Projects an environment map (FORMAT.md panorama layout in the world frame, see
     /// [`EnvMap`]) onto the first nine spherical harmonics.
     pub fn from_envmap(map: &EnvMap) -> Self {
-        Self { radiance: sh::project_radiance(map) }
+        Self {
+            radiance: sh::project_radiance(map),
+        }
     }
 
     /// A built-in analytic studio environment: a bright soft sky above, a dim floor below, and a
