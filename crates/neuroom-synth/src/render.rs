@@ -293,11 +293,12 @@ fn render_pixel(
     }
     // Alpha 0 means "no surface" (FORMAT.md): where the pixel centre — which decides depth and mask — hits
     // a surface that every jittered sample missed, shade the centre so the pixel keeps a non-zero alpha.
-    if covered == 0 && depth > 0.0 {
-        if let Some(l) = sample(centre_dir, 0, &mut rng) {
-            sum += l;
-            covered += 1;
-        }
+    if covered == 0
+        && depth > 0.0
+        && let Some(l) = sample(centre_dir, 0, &mut rng)
+    {
+        sum += l;
+        covered += 1;
     }
     let colour = if covered == 0 {
         [0.0; 4]

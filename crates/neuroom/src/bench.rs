@@ -68,7 +68,7 @@ pub fn describe_field(r: &BenchReport) -> String {
 /// `width × width/2` pixels, with the full-room rendering quality.
 pub fn synth(width: u32, seed: u64) -> anyhow::Result<neuroom_synth::BenchReport> {
     anyhow::ensure!(
-        width >= 16 && width % 2 == 0,
+        width >= 16 && width.is_multiple_of(2),
         "--width must be an even number of at least 16"
     );
     let quality = neuroom_synth::Preset::named("bedroom")
