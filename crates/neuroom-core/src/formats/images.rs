@@ -64,49 +64,43 @@ struct Samples {
 
 /// Reads a colour image as sRGB RGB in [0, 1].
 pub fn read_rgb(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbImage>> {
-    let s = decode_colour(path.as_ref())?;
-    let mut conversions = s.conversions.clone();
-    if matches!(s.channels, 2 | 4) {
-        conversions.push(Conversion::AlphaDropped);
-    }
-    let data = s
-        .values
-        .chunks_exact(s.channels)
-        .map(|p| {
-            if s.channels < 3 {
-                [p[0]; 3]
-            } else {
-                [p[0], p[1], p[2]]
-            }
-        })
-        .collect();
-    Ok(Decoded {
-        image: Image {
-            width: s.width,
-            height: s.height,
-            data,
+    read_converted(
+        path.as_ref(),
+        (&[2, 4], Conversion::AlphaDropped),
+        |p| match p.len() {
+            1 | 2 => [p[0]; 3],
+            _ => [p[0], p[1], p[2]],
         },
-        conversions,
-    })
+    )
 }
 
 /// Reads a colour image as sRGB RGBA in [0, 1]; files without alpha get alpha 1.
 pub fn read_rgba(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbaImage>> {
-    let s = decode_colour(path.as_ref())?;
-    let mut conversions = s.conversions.clone();
-    if matches!(s.channels, 1 | 3) {
-        conversions.push(Conversion::OpaqueAlphaAdded);
-    }
-    let data = s
-        .values
-        .chunks_exact(s.channels)
-        .map(|p| match p.len() {
+    read_converted(
+        path.as_ref(),
+        (&[1, 3], Conversion::OpaqueAlphaAdded),
+        |p| match p.len() {
             1 => [p[0], p[0], p[0], 1.0],
             2 => [p[0], p[0], p[0], p[1]],
             3 => [p[0], p[1], p[2], 1.0],
             _ => [p[0], p[1], p[2], p[3]],
-        })
-        .collect();
+        },
+    )
+}
+
+/// Decodes a colour image and turns each pixel's samples into `P`; `note` names the channel counts for
+/// which that turn is itself a conversion worth reporting.
+fn read_converted<P>(
+    path: &Path,
+    note: (&[usize], Conversion),
+    pixel: impl Fn(&[f32]) -> P,
+) -> FormatResult<Decoded<Image<P>>> {
+    let s = decode_colour(path)?;
+    let mut conversions = s.conversions;
+    if note.0.contains(&s.channels) {
+        conversions.push(note.1);
+    }
+    let data = s.values.chunks_exact(s.channels).map(pixel).collect();
     Ok(Decoded {
         image: Image {
             width: s.width,
