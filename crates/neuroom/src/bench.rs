@@ -123,3 +123,50 @@ pub fn describe_render(r: &neuroom_render::bench::RenderBenchReport) -> String {
     }
     out
 }
+
+/// Trains one model of the room (`background` or an object name) from scratch within `seconds` (default:
+/// the training default) and evaluates it on held-out views.
+pub fn train(
+    room: &std::path::Path,
+    model: &str,
+    seconds: Option<f64>,
+) -> anyhow::Result<neuroom_train::bench::ModelBenchReport> {
+    let mut config = neuroom_train::TrainConfig::default();
+    let progress = neuroom_train::progress::Bar::default();
+    Ok(if model == "background" {
+        config.background.time_budget_s = seconds.or(config.background.time_budget_s);
+        neuroom_train::bench::bench_background(room, &config, &progress)?
+    } else {
+        config.object.time_budget_s = seconds.or(config.object.time_budget_s);
+        neuroom_train::bench::bench_object(room, model, &config, &progress)?
+    })
+}
+
+/// One line of text for a training measurement.
+pub fn describe_train(r: &neuroom_train::bench::ModelBenchReport) -> String {
+    let chamfer = r.chamfer_m.map_or("no GT mesh".to_string(), |c| {
+        format!("Chamfer {:.1} mm", c.mean * 1e3)
+    });
+    let codes: Vec<String> = r
+        .light_codes
+        .iter()
+        .map(|l| {
+            format!(
+                "{} {:+.1} dB",
+                l.name,
+                l.psnr_with_code_db - l.psnr_with_code_0_db
+            )
+        })
+        .collect();
+    format!(
+        "train {} / {}: {} steps in {:.0} s, held-out PSNR {:.2} dB, median depth error {:.1} mm, {chamfer}, \
+         light codes [{}]",
+        r.room,
+        r.model,
+        r.steps,
+        r.train_seconds,
+        r.psnr_db,
+        r.median_depth_error_m * 1e3,
+        codes.join(", ")
+    )
+}

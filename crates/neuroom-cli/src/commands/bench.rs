@@ -1,5 +1,7 @@
 //! `neuroom bench …`: the benchmarks behind the README's performance figures, as text and JSON.
 
+use std::path::PathBuf;
+
 use neuroom::bench::{self, FieldBench};
 
 /// Measure the performance figures the README reports.
@@ -27,6 +29,25 @@ enum Which {
     ///
     /// Example: `neuroom bench render --json`
     Render(RenderArgs),
+    /// Train one model of a room from scratch with a time budget and report its held-out PSNR, depth
+    /// error, Chamfer distance to the ground-truth mesh and light-code check.
+    ///
+    /// Example: `neuroom bench train rooms/bedroom chair --seconds 300 --json`
+    Train(TrainArgs),
+}
+
+#[derive(clap::Args)]
+struct TrainArgs {
+    /// Room folder.
+    room: PathBuf,
+    /// `background` or an object name from room.json.
+    model: String,
+    /// Time budget in seconds (default: the training default for that kind of model).
+    #[arg(long)]
+    seconds: Option<f64>,
+    /// Print the report as JSON after the text.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(clap::Args)]
@@ -91,6 +112,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::Synth(a) => {
             let report = bench::synth(a.width, a.seed)?;
             println!("{}", bench::describe_synth(&report));
+            if a.json {
+                println!("{}", serde_json::to_string(&report)?);
+            }
+        }
+        Which::Train(a) => {
+            let report = bench::train(&a.room, &a.model, a.seconds)?;
+            println!("{}", bench::describe_train(&report));
             if a.json {
                 println!("{}", serde_json::to_string(&report)?);
             }
