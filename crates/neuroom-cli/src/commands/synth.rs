@@ -52,7 +52,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             summary.object_captures,
             summary.capture_frames,
             summary.panoramas,
-            summary.seconds.values().sum::<f64>()
+            summary.seconds.get("total").copied().unwrap_or(f64::NAN)
         );
     }
     Ok(())
