@@ -18,7 +18,7 @@ use crate::train::{TrainOptions, TrainProgress, TrainSummary, train_room};
 pub enum DemoSize {
     /// The `tiny` room and short training: a few minutes.
     Quick,
-    /// The `bedroom` room and the default training budgets.
+    /// The `bedroom` room, one minute of training per object model and two for the room.
     Full,
 }
 
@@ -94,7 +94,11 @@ fn train_options(config: &DemoConfig) -> TrainOptions {
             seed: Some(config.seed),
             ..TrainOptions::default()
         },
+        // Seven object models and the room in about ten minutes on 2 cores; `neuroom train` uses the full
+        // budgets (5 minutes per object, 10 for the room).
         DemoSize::Full => TrainOptions {
+            object_seconds: Some(60.0),
+            background_seconds: Some(120.0),
             seed: Some(config.seed),
             ..TrainOptions::default()
         },
