@@ -75,9 +75,12 @@ pub struct NeusConfig {
 impl NeusConfig {
     /// The default object field: L = 16, F = 2, T = 2^15, base resolution 16, finest 1024, SDF network one
     /// hidden layer of 64 (ReLU), geometry feature 15, colour network 2 × 64, codes of 16; a sphere of
-    /// radius 0.8 × the smallest half-extent; the box is the object box padded by 10 %.
+    /// radius 0.8 × the smallest half-extent; the box is the object box padded on every side by 10 % of its
+    /// largest half-extent (a flat object, such as a picture, still gets room in front of its face for rays
+    /// to build up opacity).
     pub fn object(half_extent: [f32; 3]) -> Self {
-        let pad = half_extent.map(|h| h * 1.1);
+        let margin = 0.1 * half_extent.iter().copied().fold(0.0, f32::max);
+        let pad = half_extent.map(|h| h + margin);
         let r = 0.8 * half_extent.iter().copied().fold(f32::INFINITY, f32::min);
         Self::with_bounds(
             pad.map(|h| -h),

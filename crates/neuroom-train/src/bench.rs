@@ -4,21 +4,17 @@
 
 use crate::augment::Augmentation;
 use crate::config::TrainConfig;
-use crate::eval::{LightCodeCheck, evaluate, extract_mesh, mesh_chamfer};
+use crate::eval::{LightCodeCheck, evaluate};
 use crate::mesh_extract::Chamfer;
 use crate::progress::Progress;
-use crate::room::{ModelSpec, TrainError, load_model_data, model_specs, with_threads};
+use crate::room::{
+    ModelSpec, TrainError, load_model_data, model_specs, truth_chamfer, with_threads,
+};
 use crate::trainer::{ModelKind, StepProfile, Trainer};
 use neuroom_core::formats::read_room;
-use neuroom_core::mesh::read_ply;
 use serde::Serialize;
 use std::path::Path;
 use std::time::Instant;
-
-/// Grid cells per side of the mesh extracted for the Chamfer distance.
-pub const MESH_CELLS: u32 = 192;
-/// Points sampled on each mesh for the Chamfer distance.
-pub const CHAMFER_SAMPLES: usize = 50_000;
 
 /// Figures of one timed training run.
 #[derive(Clone, Debug, Serialize)]
@@ -72,14 +68,7 @@ pub fn bench_object(
             path: room_dir.join("room.json"),
             message: format!("no object named {object:?}"),
         })?;
-    let mesh = room.root.join("meshes").join(format!("{object}.ply"));
-    bench_model(
-        &room.name,
-        &spec,
-        mesh.exists().then_some(mesh.as_path()),
-        config,
-        progress,
-    )
+    bench_model(&room.name, &spec, config, progress)
 }
 
 /// Trains and evaluates the background model of the room at `room_dir`.
@@ -90,13 +79,12 @@ pub fn bench_background(
 ) -> Result<ModelBenchReport, TrainError> {
     let room = read_room(room_dir)?;
     let spec = model_specs(&room).remove(0);
-    bench_model(&room.name, &spec, None, config, progress)
+    bench_model(&room.name, &spec, config, progress)
 }
 
 fn bench_model(
     room: &str,
     spec: &ModelSpec,
-    mesh: Option<&Path>,
     config: &TrainConfig,
     progress: &dyn Progress,
 ) -> Result<ModelBenchReport, TrainError> {
@@ -118,14 +106,7 @@ fn bench_model(
             &augmentation,
             trainer.light_codes().capture,
         );
-        let chamfer_m = match mesh {
-            Some(path) => {
-                let truth = read_ply(path)?;
-                let learned = extract_mesh(&trainer.field, &field_bounds, MESH_CELLS);
-                Some(mesh_chamfer(&learned, &truth, CHAMFER_SAMPLES))
-            }
-            None => None,
-        };
+        let chamfer_m = truth_chamfer(spec, &trainer.field, &field_bounds)?;
         Ok(ModelBenchReport {
             room: room.to_string(),
             model: spec.name.clone(),

@@ -161,7 +161,7 @@ fn polygonize_tetrahedron(
 }
 
 /// Chamfer distance between two point sets, in the sets' units.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Chamfer {
     /// Mean distance from each point of the first set to the nearest of the second (accuracy).
     pub a_to_b: f32,

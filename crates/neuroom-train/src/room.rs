@@ -12,12 +12,14 @@
 use crate::augment::Augmentation;
 use crate::config::TrainConfig;
 use crate::dataset::{Aabb, Dataset, LoadOptions, Role};
-use crate::eval::{EvalReport, evaluate};
+use crate::eval::{EvalReport, evaluate, extract_mesh, mesh_chamfer};
 use crate::losses::LossParts;
+use crate::mesh_extract::Chamfer;
 use crate::progress::Progress;
 use crate::trainer::{LightCodes, ModelKind, Trainer, field_config};
 use neuroom_core::FormatError;
 use neuroom_core::formats::{Room, atomic_write, read_capture, read_room};
+use neuroom_core::mesh::read_ply;
 use neuroom_field::NeusField;
 use neuroom_field::checkpoint::{self, CheckpointError};
 use serde::{Deserialize, Serialize};
@@ -63,6 +65,8 @@ pub struct ModelSpec {
     pub objects: Vec<String>,
     /// Folder of the model relative to the room's model folder.
     pub path: String,
+    /// Ground-truth mesh of the object (`meshes/<first object>.ply`, object frame), when the room has it.
+    pub truth_mesh: Option<PathBuf>,
 }
 
 /// The models a room needs: the background first, then one per distinct object capture.
@@ -75,6 +79,7 @@ pub fn model_specs(room: &Room) -> Vec<ModelSpec> {
         bounds: room_box(room),
         objects: Vec::new(),
         path: "background".into(),
+        truth_mesh: None,
     }];
     for (capture, members) in room.objects_by_capture() {
         let first = members[0];
@@ -97,6 +102,8 @@ pub fn model_specs(room: &Room) -> Vec<ModelSpec> {
                 max: half.to_array(),
             }),
             objects: members.iter().map(|o| o.name.clone()).collect(),
+            truth_mesh: Some(room.root.join("meshes").join(format!("{}.ply", first.name)))
+                .filter(|p| p.is_file()),
         });
     }
     specs
@@ -130,6 +137,9 @@ pub struct ModelStats {
     pub inv_s: f32,
     /// Held-out figures, when evaluated.
     pub eval: Option<EvalReport>,
+    /// Chamfer distance (metres) of the extracted mesh to the ground-truth mesh, when the room has one.
+    #[serde(default)]
+    pub chamfer_m: Option<Chamfer>,
 }
 
 /// One model in the manifest.
@@ -319,6 +329,7 @@ pub fn train_model(
             lights.capture,
         )
     });
+    let chamfer_m = truth_chamfer(spec, &trainer.field, &field_bounds)?;
     let entry = ModelEntry {
         name: spec.name.clone(),
         path: spec.path.clone(),
@@ -339,6 +350,7 @@ pub fn train_model(
             final_loss: trainer.state.last,
             inv_s: trainer.field.inv_s(),
             eval,
+            chamfer_m,
         },
     };
     let mut meta = trainer.trainer_json();
@@ -350,6 +362,25 @@ pub fn train_model(
     let _ = std::fs::remove_dir_all(&ckpt);
     let _ = std::fs::remove_file(model_dir.join("adam.safetensors"));
     Ok((entry, trainer.field))
+}
+
+/// Grid cells per side of the mesh extracted for the Chamfer distance.
+pub const MESH_CELLS: u32 = 192;
+/// Points sampled on each mesh for the Chamfer distance.
+pub const CHAMFER_SAMPLES: usize = 50_000;
+
+/// Chamfer distance between the zero level set of `field` and the spec's ground-truth mesh, when it has one.
+pub fn truth_chamfer(
+    spec: &ModelSpec,
+    field: &NeusField<f32>,
+    bounds: &Aabb,
+) -> Result<Option<Chamfer>, TrainError> {
+    let Some(path) = &spec.truth_mesh else {
+        return Ok(None);
+    };
+    let truth = read_ply(path)?;
+    let learned = extract_mesh(field, bounds, MESH_CELLS);
+    Ok(Some(mesh_chamfer(&learned, &truth, CHAMFER_SAMPLES)))
 }
 
 fn write_manifest(dir: &Path, manifest: &Manifest) -> Result<(), TrainError> {

@@ -70,16 +70,34 @@ pub fn describe_model(m: &neuroom_train::ModelEntry) -> String {
         .eval
         .as_ref()
         .map_or("not evaluated".to_string(), |e| {
+            let gains: Vec<String> = e
+                .light_codes
+                .iter()
+                .map(|c| {
+                    format!(
+                        "{} {:+.1} dB",
+                        c.name,
+                        c.psnr_with_code_db - c.psnr_with_code_0_db
+                    )
+                })
+                .collect();
             format!(
-                "held-out PSNR {:.2} dB, median depth error {:.1} mm, coverage {:.0} % ({} views)",
+                "held-out PSNR {:.2} dB, median depth error {:.1} mm, coverage {:.0} % ({} views), \
+                 light codes [{}]",
                 e.psnr_db,
                 e.median_depth_error_m * 1000.0,
                 e.coverage * 100.0,
-                e.views
+                e.views,
+                gains.join(", ")
             )
         });
+    let chamfer = m
+        .stats
+        .chamfer_m
+        .map(|c| format!(", Chamfer {:.1} mm", c.mean * 1000.0))
+        .unwrap_or_default();
     format!(
-        "{:<14} {} steps in {:.0} s, inv_s {:.0}: {eval}",
+        "{:<14} {} steps in {:.0} s, inv_s {:.0}: {eval}{chamfer}",
         m.name, m.stats.steps, m.stats.train_seconds, m.stats.inv_s
     )
 }
