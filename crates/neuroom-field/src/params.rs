@@ -84,6 +84,15 @@ impl<T: Real> Params<T> {
         &mut self.groups[g as usize]
     }
 
+    /// Whether every value is finite (no NaN or infinity): the optimisers check gradients with it before
+    /// they step.
+    pub fn all_finite(&self) -> bool {
+        self.groups.iter().all(|g| {
+            g.par_chunks(1 << 16)
+                .all(|c| c.iter().all(|v| v.to_f64().is_finite()))
+        })
+    }
+
     /// Sets every value to zero (in parallel; the hash group can hold millions).
     pub fn fill_zero(&mut self) {
         for g in &mut self.groups {

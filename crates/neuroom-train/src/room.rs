@@ -38,6 +38,21 @@ pub enum TrainError {
     /// A checkpoint or model that cannot be read or written.
     #[error(transparent)]
     Checkpoint(#[from] CheckpointError),
+    /// The optimisation kept producing non-finite or exploding losses, even with smaller steps.
+    #[error(
+        "{model}: training diverged at step {step} ({faults} faulty steps in a row, learning rate scaled \
+         down to {lr_scale:e}); the last checkpoint is kept"
+    )]
+    Diverged {
+        /// The model.
+        model: String,
+        /// The step it gave up at.
+        step: u64,
+        /// Faulty steps in a row.
+        faults: u64,
+        /// The learning-rate scale reached.
+        lr_scale: f32,
+    },
     /// A problem with a file that is not one of the above, e.g. the manifest.
     #[error("{path}: {message}")]
     File {
@@ -140,6 +155,9 @@ pub struct ModelStats {
     /// Chamfer distance (metres) of the extracted mesh to the ground-truth mesh, when the room has one.
     #[serde(default)]
     pub chamfer_m: Option<Chamfer>,
+    /// Steps skipped because their loss or gradient was not finite or exploded.
+    #[serde(default)]
+    pub faulty_steps: u64,
 }
 
 /// One model in the manifest.
@@ -351,6 +369,7 @@ pub fn train_model(
             inv_s: trainer.field.inv_s(),
             eval,
             chamfer_m,
+            faulty_steps: trainer.state.health.faults,
         },
     };
     let mut meta = trainer.trainer_json();

@@ -17,6 +17,7 @@ use crate::dataset::{Aabb, Dataset};
 use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sample_zone, sdf_loss};
 use crate::progress::Progress;
 use crate::rng::Pcg32;
+use crate::room::TrainError;
 use glam::Vec3;
 use neuroom_field::checkpoint::{self, CheckpointError};
 use neuroom_field::{
@@ -49,9 +50,62 @@ pub struct TrainState {
     pub elapsed_s: f64,
     /// Loss of the last step.
     pub last: LossParts,
+    /// Health of the optimisation (faulty steps and the learning-rate scale they left).
+    #[serde(default)]
+    pub health: Health,
     /// Seconds per phase, summed over the steps of this session (not restored on resume).
     #[serde(skip)]
     pub profile: StepProfile,
+}
+
+/// Steps whose loss or gradient was not finite, or whose loss exploded, are not applied: the parameters
+/// stay at the last good state and the learning rate is halved. Too many faults in a row stop the run.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Health {
+    /// Faulty steps skipped over the whole run.
+    pub faults: u64,
+    /// Faulty steps in a row, up to the last step.
+    pub in_a_row: u64,
+    /// Multiplier of the learning rates (1, halved at every fault).
+    pub lr_scale: f32,
+    /// Running mean of the total loss of good steps (0 before the first).
+    pub loss_mean: f32,
+}
+
+impl Default for Health {
+    fn default() -> Self {
+        Self {
+            faults: 0,
+            in_a_row: 0,
+            lr_scale: 1.0,
+            loss_mean: 0.0,
+        }
+    }
+}
+
+/// A step whose loss is this many times the running mean counts as exploding.
+const EXPLODING_LOSS: f32 = 20.0;
+/// Faulty steps in a row after which a run stops.
+pub const MAX_FAULTS_IN_A_ROW: u64 = 20;
+
+impl Health {
+    /// Whether a step with loss `total` and gradients `grads_finite` may be applied; records a fault if not.
+    pub fn admit(&mut self, total: f32, grads_finite: bool) -> bool {
+        let exploding = self.loss_mean > 0.0 && total > EXPLODING_LOSS * self.loss_mean;
+        if total.is_finite() && grads_finite && !exploding {
+            self.in_a_row = 0;
+            self.loss_mean = if self.loss_mean > 0.0 {
+                0.95 * self.loss_mean + 0.05 * total
+            } else {
+                total
+            };
+            return true;
+        }
+        self.faults += 1;
+        self.in_a_row += 1;
+        self.lr_scale *= 0.5;
+        false
+    }
 }
 
 /// Where a step's time goes, summed over steps (seconds).
@@ -199,6 +253,7 @@ impl<'a> Trainer<'a> {
             rng: Pcg32::new(config.seed, 0x7A1E),
             elapsed_s: 0.0,
             last: LossParts::default(),
+            health: Health::default(),
             profile: StepProfile::default(),
         };
         Self::assemble(data, augmentation, config, kind, field, adam, state, lights)
@@ -324,9 +379,15 @@ impl<'a> Trainer<'a> {
         prof.backward += lap.next();
         parts.eikonal = self.eikonal();
         prof.eikonal += lap.next();
-        let factor = self.schedule().factor(self.state.step);
-        let lr: [f32; NUM_GROUPS] = self.config.learning_rates.map(|r| r * factor);
-        self.adam.step(&mut self.field.params, &self.grads, &lr);
+        if self
+            .state
+            .health
+            .admit(parts.total(), self.grads.all_finite())
+        {
+            let factor = self.schedule().factor(self.state.step) * self.state.health.lr_scale;
+            let lr: [f32; NUM_GROUPS] = self.config.learning_rates.map(|r| r * factor);
+            self.adam.step(&mut self.field.params, &self.grads, &lr);
+        }
         self.grads.fill_zero();
         prof.adam += lap.next();
         prof.steps += 1;
@@ -716,12 +777,21 @@ impl Trainer<'_> {
         name: &str,
         checkpoint: Option<&Path>,
         progress: &dyn Progress,
-    ) -> Result<(), CheckpointError> {
+    ) -> Result<(), TrainError> {
         progress.start(name, self.state.step, self.state.total_steps);
         let every = self.config.checkpoint_every;
         while !self.finished() {
             let loss = self.step();
             progress.step(self.state.step, self.state.total_steps, &loss);
+            let health = self.state.health;
+            if health.in_a_row >= MAX_FAULTS_IN_A_ROW {
+                return Err(TrainError::Diverged {
+                    model: name.to_string(),
+                    step: self.state.step,
+                    faults: health.in_a_row,
+                    lr_scale: health.lr_scale,
+                });
+            }
             if let Some(dir) =
                 checkpoint.filter(|_| every > 0 && self.state.step.is_multiple_of(every))
             {
@@ -732,8 +802,15 @@ impl Trainer<'_> {
             self.save(dir)?;
         }
         let last = &self.state.last;
+        let faults = match self.state.health.faults {
+            0 => String::new(),
+            f => format!(
+                ", {f} faulty steps skipped (learning rate scaled by {:e})",
+                self.state.health.lr_scale
+            ),
+        };
         progress.finish(&format!(
-            "{} steps in {:.0} s, loss {:.4}, batch PSNR {:.2} dB, inv_s {:.0}",
+            "{} steps in {:.0} s, loss {:.4}, batch PSNR {:.2} dB, inv_s {:.0}{faults}",
             self.state.step,
             self.state.elapsed_s,
             last.total(),
@@ -741,5 +818,24 @@ impl Trainer<'_> {
             self.field.inv_s()
         ));
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn health_skips_non_finite_and_exploding_steps_and_halves_the_rate() {
+        let mut h = Health::default();
+        assert!(h.admit(1.0, true));
+        assert!(!h.admit(f32::NAN, true));
+        assert!(!h.admit(1.0, false));
+        assert!(!h.admit(100.0, true), "20× the running mean explodes");
+        assert_eq!((h.faults, h.in_a_row), (3, 3));
+        assert_eq!(h.lr_scale, 0.125);
+        assert!(h.admit(1.2, true));
+        assert_eq!((h.faults, h.in_a_row), (3, 0));
+        assert!((h.loss_mean - 1.01).abs() < 1e-6, "{}", h.loss_mean);
     }
 }

@@ -55,6 +55,37 @@ const BALL_BOX: Aabb = Aabb {
 };
 
 #[test]
+fn a_poisoned_field_stops_with_a_divergence_error_not_nan_weights() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = ball_data(dir.path());
+    let config = quick_config(100);
+    let aug = Augmentation::default();
+    let mut trainer = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
+    let sdf = trainer.field.params.get_mut(neuroom_field::Group::SdfMlp);
+    sdf[0] = f32::NAN;
+    let before = trainer.field.params.clone();
+    let err = trainer.run("ball", None, &Quiet).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            neuroom_train::room::TrainError::Diverged { step: 20, .. }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("ball: training diverged"), "{err}");
+    // No faulty step was applied: every other parameter is untouched.
+    let after = &trainer.field.params;
+    for g in neuroom_field::Group::ALL {
+        let (a, b) = (before.get(g), after.get(g));
+        assert!(
+            a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "{} changed",
+            g.name()
+        );
+    }
+}
+
+#[test]
 fn a_ball_is_learned_to_stated_psnr_depth_and_chamfer() {
     let dir = tempfile::tempdir().unwrap();
     let data = ball_data(dir.path());
