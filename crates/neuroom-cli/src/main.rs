@@ -21,6 +21,9 @@ enum Command {
     Info(commands::info::Args),
     Train(commands::train::Args),
     Render(commands::render::Args),
+    Relight(commands::relight::Args),
+    Edit(commands::edit::Args),
+    Export(commands::export::Args),
     Fit(commands::fit::Args),
     Bench(commands::bench::Args),
 }
@@ -33,6 +36,9 @@ fn main() {
         Command::Info(args) => commands::info::run(args),
         Command::Train(args) => commands::train::run(args),
         Command::Render(args) => commands::render::run(args),
+        Command::Relight(args) => commands::relight::run(args),
+        Command::Edit(args) => commands::edit::run(args),
+        Command::Export(args) => commands::export::run(args),
         Command::Fit(args) => commands::fit::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };

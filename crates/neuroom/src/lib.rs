@@ -4,10 +4,14 @@
 
 pub mod bench;
 pub mod demo;
+pub mod edit;
+pub mod export;
 pub mod fit;
 pub mod inspect;
+pub mod relight;
 pub mod scene;
 pub mod synth;
+pub mod tour;
 pub mod train;
 pub mod view;
 

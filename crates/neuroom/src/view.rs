@@ -5,11 +5,12 @@ use std::path::Path;
 use glam::DVec3;
 use neuroom_core::Pose;
 use neuroom_core::camera::{Camera, Equirect, Pinhole, look_at};
-use neuroom_core::formats::{self, read_arrangement};
+use neuroom_core::formats::{self, Arrangement, read_arrangement};
 use neuroom_core::image::{DepthImage, MaskImage, RgbImage};
+use neuroom_export::lighting::{LitScene, SceneLight, fit_report_path};
 use neuroom_render::{RenderConfig, render_image};
 
-use crate::scene::{build_scene, load_models};
+use crate::edit::{PlacedModels, place_models};
 
 /// Which camera to render from.
 #[derive(Clone, Debug)]
@@ -36,7 +37,7 @@ pub enum ViewCamera {
 
 impl ViewCamera {
     /// The camera model and its pose, given the arrangement's panorama camera.
-    fn resolve(&self, panorama_pose: &Pose) -> anyhow::Result<(Camera, Pose)> {
+    pub fn resolve(&self, panorama_pose: &Pose) -> anyhow::Result<(Camera, Pose)> {
         match *self {
             ViewCamera::Panorama { width } => {
                 let camera = Equirect::new(width, width / 2).map_err(anyhow::Error::msg)?;
@@ -74,17 +75,66 @@ pub struct View {
     pub mask: MaskImage,
 }
 
-/// Renders the models in `models` (a room's model folder) placed as the arrangement file says.
+/// A room's models placed by an arrangement, under the arrangement's solved lighting.
+pub struct SolvedScene {
+    /// The arrangement.
+    pub arrangement: Arrangement,
+    /// The scene; every layer owns a light code row, so lightings can be written into it.
+    pub lit: LitScene,
+    /// The lighting the fit solved (objects' codes and tones, the room's from the report beside the
+    /// arrangement); empty for an arrangement that is not a fit's output.
+    pub solved: SceneLight,
+    /// What the scene's models are (names, light code names, boxes), by model index.
+    pub placed: PlacedModels,
+}
+
+/// Places the models of `models` as the arrangement file says (objects an edit inserted from another
+/// room's models included) and applies its solved lighting: the objects' `tone` and `light_code`, and
+/// the room's from `<stem>.fit.json` beside it when that exists.
+pub fn solved_scene(models: &Path, arrangement_path: &Path) -> anyhow::Result<SolvedScene> {
+    let arrangement = read_arrangement(arrangement_path)?;
+    let (scene, placed) = place_models(models, &arrangement)?;
+    let report = fit_report_path(arrangement_path);
+    let solved = SceneLight::solved(
+        &arrangement,
+        arrangement_path,
+        report.exists().then_some(report.as_path()),
+    )?;
+    let mut lit = LitScene::new(scene);
+    lit.set(&solved)?;
+    Ok(SolvedScene {
+        arrangement,
+        lit,
+        solved,
+        placed,
+    })
+}
+
+/// Renders `scene` from `camera` (the panorama camera is the arrangement's).
+pub fn render_view(scene: &SolvedScene, camera: &ViewCamera) -> anyhow::Result<View> {
+    let (camera, pose) = camera.resolve(&scene.arrangement.camera_to_world)?;
+    Ok(render_camera(scene, &camera, &pose))
+}
+
+/// Renders `scene` from a camera model at `camera_to_world`.
+pub fn render_camera(scene: &SolvedScene, camera: &Camera, camera_to_world: &Pose) -> View {
+    let (rgb, depth, mask) = render_image(
+        &scene.lit.scene,
+        camera,
+        camera_to_world,
+        &RenderConfig::default(),
+    );
+    View { rgb, depth, mask }
+}
+
+/// Renders the models in `models` (a room's model folder) placed as the arrangement file says, under
+/// its solved lighting when it carries one.
 pub fn render_arrangement(
     models: &Path,
     arrangement: &Path,
     camera: &ViewCamera,
 ) -> anyhow::Result<View> {
-    let arrangement = read_arrangement(arrangement)?;
-    let scene = build_scene(load_models(models)?, &arrangement)?;
-    let (camera, pose) = camera.resolve(&arrangement.camera_to_world)?;
-    let (rgb, depth, mask) = render_image(&scene, &camera, &pose, &RenderConfig::default());
-    Ok(View { rgb, depth, mask })
+    render_view(&solved_scene(models, arrangement)?, camera)
 }
 
 /// Writes a view: colour to `rgb`, and depth (16-bit millimetres) and instance mask where asked.

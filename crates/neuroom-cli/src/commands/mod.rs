@@ -2,8 +2,11 @@
 
 pub mod bench;
 pub mod demo;
+pub mod edit;
+pub mod export;
 pub mod fit;
 pub mod info;
+pub mod relight;
 pub mod render;
 pub mod synth;
 pub mod train;

@@ -1,0 +1,546 @@
+//! `neuroom export`: a solved room as a glTF 2.0 binary (meshes from the SDFs, vertex colours under the
+//! solved lighting, placed by the solved poses, the camera) and as an offline HTML report (the input
+//! panorama, renders of the solved scene, a top-down map against the ground truth, the metrics).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use glam::{DVec3, Vec3};
+use neuroom_core::formats::{Arrangement, atomic_write, read_arrangement, read_rgb, read_room};
+use neuroom_core::image::{Image, RgbImage};
+use neuroom_core::metrics::{
+    ArrangementScore, GtObject, PredictedObject, evaluate_arrangement, psnr, ssim,
+};
+use neuroom_core::obb::OrientedBox;
+use neuroom_export::mesh::{Geometry, MeshDetail, scene_meshes};
+use neuroom_export::report::{Figure, Report, Section, Table};
+use neuroom_export::room_gltf::{ExportCamera, room_glb};
+use neuroom_export::topdown::{MapBox, TopDown};
+
+use crate::tour::{Generated, Lens, generate, room_box};
+use crate::view::{SolvedScene, ViewCamera, render_view, solved_scene};
+
+/// What to export and how.
+#[derive(Clone, Debug)]
+pub struct ExportOptions {
+    /// Write the glTF binary here.
+    pub gltf: Option<PathBuf>,
+    /// Write the HTML report here.
+    pub report: Option<PathBuf>,
+    /// Ground-truth arrangement to compare with (report).
+    pub truth: Option<PathBuf>,
+    /// The room folder (object sizes for boxes and metrics); found beside the ground truth otherwise.
+    pub room: Option<PathBuf>,
+    /// The input panorama; found beside the arrangement or the ground truth otherwise.
+    pub panorama: Option<PathBuf>,
+    /// Mesh resolution (glTF).
+    pub detail: MeshDetail,
+    /// Width of the report's panorama render.
+    pub render_width: u32,
+    /// Number of pinhole views of the solved scene in the report.
+    pub views: usize,
+}
+
+impl Default for ExportOptions {
+    fn default() -> Self {
+        Self {
+            gltf: None,
+            report: None,
+            truth: None,
+            room: None,
+            panorama: None,
+            detail: MeshDetail::default(),
+            render_width: 512,
+            views: 2,
+        }
+    }
+}
+
+/// What an export wrote and measured.
+#[derive(Clone, Debug, Default)]
+pub struct ExportSummary {
+    /// The glTF file with its vertex and triangle counts.
+    pub gltf: Option<(PathBuf, usize, usize)>,
+    /// The report.
+    pub report: Option<PathBuf>,
+    /// The scores against the ground truth, when given.
+    pub score: Option<ArrangementScore>,
+    /// PSNR (dB) and SSIM of the solved panorama render against the input, when both are known.
+    pub image_agreement: Option<(f64, f64)>,
+}
+
+/// Exports the models in `models` placed by `arrangement` as `options` asks; `progress(stage)` names
+/// each stage as it starts.
+pub fn export(
+    models: &Path,
+    arrangement: &Path,
+    options: &ExportOptions,
+    progress: &mut dyn FnMut(&str),
+) -> anyhow::Result<ExportSummary> {
+    progress("placing the models");
+    let scene = solved_scene(models, arrangement)?;
+    let mut summary = ExportSummary::default();
+    if let Some(path) = &options.gltf {
+        progress("extracting coloured meshes");
+        summary.gltf = Some(write_gltf(&scene, path, &options.detail)?);
+    }
+    if let Some(path) = &options.report {
+        write_report(
+            &scene,
+            models,
+            arrangement,
+            options,
+            path,
+            progress,
+            &mut summary,
+        )?;
+        summary.report = Some(path.clone());
+    }
+    Ok(summary)
+}
+
+/// Writes the glTF binary; returns its path, vertex and triangle counts.
+fn write_gltf(
+    scene: &SolvedScene,
+    path: &Path,
+    detail: &MeshDetail,
+) -> anyhow::Result<(PathBuf, usize, usize)> {
+    let names: Vec<String> = scene
+        .arrangement
+        .objects
+        .iter()
+        .map(|o| o.name.clone())
+        .collect();
+    let meshes = scene_meshes(&scene.lit.scene, &names, detail);
+    let camera = ExportCamera::from_panorama(scene.arrangement.camera_to_world);
+    atomic_write(path, &room_glb(&meshes, &camera))?;
+    let count = |f: &dyn Fn(&Geometry) -> usize| {
+        meshes
+            .layers
+            .iter()
+            .map(|l| f(&meshes.geometries[l.geometry]))
+            .sum::<usize>()
+    };
+    Ok((
+        path.to_path_buf(),
+        count(&|g| g.positions.len()),
+        count(&|g| g.triangles.len()),
+    ))
+}
+
+/// The room folder: given, or the one holding the ground truth's `panoramas/`.
+fn find_room(options: &ExportOptions) -> Option<PathBuf> {
+    options.room.clone().or_else(|| {
+        let dir = options.truth.as_ref()?.parent()?.parent()?;
+        dir.join("room.json").exists().then(|| dir.to_path_buf())
+    })
+}
+
+/// The input panorama: given, or the arrangement's `image` beside it or beside the ground truth.
+fn find_panorama(
+    options: &ExportOptions,
+    arrangement: &Path,
+    solved: &Arrangement,
+    truth: Option<&Arrangement>,
+) -> Option<PathBuf> {
+    if let Some(p) = &options.panorama {
+        return Some(p.clone());
+    }
+    let beside = |file: &Path, image: &str| {
+        let p = file.parent()?.join(image);
+        (!image.is_empty() && p.is_file()).then_some(p)
+    };
+    beside(arrangement, &solved.image).or_else(|| {
+        let t = truth?;
+        beside(options.truth.as_ref()?, &t.image)
+    })
+}
+
+/// Full box sizes by object id: room.json's, or the extent of each model's surface.
+fn object_sizes(scene: &SolvedScene, room: Option<&Path>) -> anyhow::Result<Vec<(u16, DVec3)>> {
+    if let Some(room) = room {
+        let room = read_room(room.join("room.json"))?;
+        return Ok(room.objects.iter().map(|o| (o.id, o.size)).collect());
+    }
+    let s = &scene.lit.scene;
+    Ok(s.objects
+        .iter()
+        .map(|o| {
+            let g = Geometry::extract(
+                &s.models[o.model].field,
+                -o.half_extents,
+                o.half_extents,
+                24,
+            );
+            let size = g.bounds().map_or(2.0 * o.half_extents, |(lo, hi)| hi - lo);
+            (o.instance_id, size.as_dvec3())
+        })
+        .collect())
+}
+
+/// Model name per object id: the solved scene's, then the manifest's id lists.
+fn model_names(scene: &SolvedScene, models: &Path) -> Vec<(u16, String)> {
+    let mut names: Vec<(u16, String)> = scene
+        .lit
+        .scene
+        .objects
+        .iter()
+        .map(|o| (o.instance_id, scene.placed.names[o.model].clone()))
+        .collect();
+    if let Ok(m) = crate::edit::read_manifest(models) {
+        for e in &m.models {
+            names.extend(e.ids.iter().map(|id| (*id, e.name.clone())));
+        }
+    }
+    names
+}
+
+fn lookup<T: Clone>(table: &[(u16, T)], id: u16) -> Option<T> {
+    table.iter().find(|(i, _)| *i == id).map(|(_, v)| v.clone())
+}
+
+/// Averages `image` down by an integer factor to `width × height`, when the sizes allow it.
+fn box_downsample(image: &RgbImage, width: u32, height: u32) -> Option<RgbImage> {
+    let f = image.width / width;
+    if f == 0 || image.width != f * width || image.height != f * height {
+        return None;
+    }
+    let mut out = Image::filled(width, height, [0.0f32; 3]);
+    let inv = 1.0 / (f * f) as f32;
+    for v in 0..height {
+        for u in 0..width {
+            let mut acc = Vec3::ZERO;
+            for dv in 0..f {
+                for du in 0..f {
+                    acc += Vec3::from(*image.get(u * f + du, v * f + dv));
+                }
+            }
+            out.set(u, v, (acc * inv).to_array());
+        }
+    }
+    Some(out)
+}
+
+/// An image file as a figure, embedded as it is when PNG or JPEG.
+fn file_figure(path: &Path, caption: String) -> anyhow::Result<Figure> {
+    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let mime = match bytes.get(..4) {
+        Some([0x89, b'P', b'N', b'G']) => "image/png",
+        Some([0xFF, 0xD8, 0xFF, _]) => "image/jpeg",
+        _ => anyhow::bail!("{}: neither PNG nor JPEG", path.display()),
+    };
+    Ok(Figure {
+        caption,
+        mime,
+        bytes,
+    })
+}
+
+fn fmt(v: Option<f64>, unit: &str) -> String {
+    v.map_or("–".into(), |x| format!("{x:.1}{unit}"))
+}
+
+/// The metrics table of `score`.
+fn score_table(score: &ArrangementScore, names: &[(u16, String)]) -> Table {
+    let mut rows: Vec<Vec<String>> = score
+        .objects
+        .iter()
+        .map(|o| {
+            vec![
+                format!("{} ({})", lookup(names, o.id).unwrap_or_default(), o.id),
+                o.predicted_id.map_or("missed".into(), |p| p.to_string()),
+                format!("{:.1} %", o.iou_percent),
+                fmt(o.rotation_error_deg, "°"),
+                fmt(o.yaw_error_deg, "°"),
+                fmt(o.position_error_cm, " cm"),
+            ]
+        })
+        .collect();
+    rows.push(vec![
+        "mean".into(),
+        format!(
+            "P {:.0} % / R {:.0} %",
+            100.0 * score.precision,
+            100.0 * score.recall
+        ),
+        fmt(score.mean_iou_percent, " %"),
+        fmt(score.mean_rotation_error_deg, "°"),
+        fmt(score.mean_yaw_error_deg, "°"),
+        fmt(score.mean_position_error_cm, " cm"),
+    ]);
+    Table {
+        header: ["object (id)", "matched", "IoU", "ARE", "yaw error", "APE"]
+            .map(String::from)
+            .to_vec(),
+        rows,
+    }
+}
+
+/// The solved objects: position and heading.
+fn object_table(arrangement: &Arrangement, names: &[(u16, String)]) -> Table {
+    Table {
+        header: ["object (id)", "model", "x", "y", "z", "yaw"]
+            .map(String::from)
+            .to_vec(),
+        rows: arrangement
+            .objects
+            .iter()
+            .map(|o| {
+                let t = o.object_to_world.translation;
+                vec![
+                    format!("{} ({})", o.name, o.id),
+                    lookup(names, o.id).unwrap_or_default(),
+                    format!("{:.3} m", t.x),
+                    format!("{:.3} m", t.y),
+                    format!("{:.3} m", t.z),
+                    format!("{:.1}°", o.object_to_world.yaw().to_degrees()),
+                ]
+            })
+            .collect(),
+    }
+}
+
+/// Boxes of an arrangement's objects whose size is known.
+fn map_boxes(arrangement: &Arrangement, sizes: &[(u16, DVec3)]) -> Vec<MapBox> {
+    arrangement
+        .objects
+        .iter()
+        .filter_map(|o| {
+            Some(MapBox {
+                label: o.name.clone(),
+                id: o.id,
+                obb: OrientedBox::new(o.object_to_world, lookup(sizes, o.id)?),
+            })
+        })
+        .collect()
+}
+
+/// Renders, measures and writes the report.
+fn write_report(
+    scene: &SolvedScene,
+    models: &Path,
+    arrangement_path: &Path,
+    options: &ExportOptions,
+    path: &Path,
+    progress: &mut dyn FnMut(&str),
+    summary: &mut ExportSummary,
+) -> anyhow::Result<()> {
+    let solved = &scene.arrangement;
+    let truth = options.truth.as_deref().map(read_arrangement).transpose()?;
+    let room = find_room(options);
+    let sizes = object_sizes(scene, room.as_deref())?;
+    let names = model_names(scene, models);
+    let mut sections = vec![(
+        "Summary".to_string(),
+        Section::Text(format!(
+            "Models {}; arrangement {} ({} objects){}.",
+            models.display(),
+            arrangement_path.display(),
+            solved.objects.len(),
+            options
+                .truth
+                .as_ref()
+                .map_or(String::new(), |t| format!("; ground truth {}", t.display()))
+        )),
+    )];
+    progress("rendering the solved panorama");
+    let render = render_view(
+        scene,
+        &ViewCamera::Panorama {
+            width: options.render_width,
+        },
+    )?
+    .rgb;
+    let mut figures = Vec::new();
+    if let Some(p) = find_panorama(options, arrangement_path, solved, truth.as_ref()) {
+        figures.push(file_figure(&p, format!("input panorama {}", p.display()))?);
+        let input = read_rgb(&p)?.image;
+        if let Some(small) = box_downsample(&input, render.width, render.height) {
+            summary.image_agreement = Some((psnr(&small, &render), ssim(&small, &render)));
+        }
+    }
+    figures.push(Figure::png(
+        "the solved scene rendered from the panorama camera",
+        &render,
+    )?);
+    sections.push((
+        "Input and solved panorama".into(),
+        Section::Figures(figures),
+    ));
+    if let Some((p, s)) = summary.image_agreement {
+        sections.push((
+            "Image agreement".into(),
+            Section::Text(format!(
+                "Solved render against the input at {}×{}: PSNR {p:.2} dB, SSIM {s:.3}.",
+                render.width, render.height
+            )),
+        ));
+    }
+    if options.views > 0 {
+        progress("rendering views of the solved scene");
+        let (lo, hi) = room_box(scene);
+        let lens = Lens::Pinhole {
+            width: 400,
+            height: 300,
+            fov_deg: 75.0,
+        };
+        let mut views = Vec::new();
+        for (k, pose) in generate(Generated::Orbit(options.views), lo, hi)?
+            .iter()
+            .enumerate()
+        {
+            let (camera, camera_to_world) = lens.camera(pose)?;
+            let rgb = crate::view::render_camera(scene, &camera, &camera_to_world).rgb;
+            views.push(Figure::png(format!("view {} of an orbit", k + 1), &rgb)?);
+        }
+        sections.push(("Views of the solved scene".into(), Section::Figures(views)));
+    }
+    progress("drawing the map and the metrics");
+    let (lo, hi) = room_box(scene);
+    let camera = &solved.camera_to_world;
+    let map = TopDown {
+        room: (lo.truncate(), hi.truncate()),
+        solved: map_boxes(solved, &sizes),
+        truth: truth
+            .as_ref()
+            .map_or_else(Vec::new, |t| map_boxes(t, &sizes)),
+        camera: Some((camera.translation, camera.transform_vector(DVec3::X))),
+    };
+    let caption = if truth.is_some() {
+        "top-down map: solved boxes filled, ground truth dashed, in the same colour per object"
+    } else {
+        "top-down map of the solved boxes"
+    };
+    sections.push((
+        "Top-down map".into(),
+        Section::Svg {
+            svg: map.svg(),
+            caption: caption.into(),
+        },
+    ));
+    if let Some(t) = &truth {
+        let score = score(solved, t, &sizes, &names);
+        sections.push((
+            "Arrangement against the ground truth".into(),
+            Section::Table(score_table(&score, &names)),
+        ));
+        summary.score = Some(score);
+    }
+    sections.push((
+        "Solved objects".into(),
+        Section::Table(object_table(solved, &names)),
+    ));
+    let report = Report {
+        title: format!("neuroom: {}", arrangement_path.display()),
+        sections,
+    };
+    atomic_write(path, report.html().as_bytes())?;
+    Ok(())
+}
+
+/// Scores the solved arrangement against the truth (boxes of the true sizes).
+fn score(
+    solved: &Arrangement,
+    truth: &Arrangement,
+    sizes: &[(u16, DVec3)],
+    names: &[(u16, String)],
+) -> ArrangementScore {
+    let gt: Vec<GtObject> = truth
+        .objects
+        .iter()
+        .filter_map(|o| {
+            Some(GtObject {
+                id: o.id,
+                model: lookup(names, o.id).unwrap_or_else(|| format!("id {}", o.id)),
+                size: lookup(sizes, o.id)?,
+                object_to_world: o.object_to_world,
+            })
+        })
+        .collect();
+    let predicted: Vec<PredictedObject> = solved
+        .objects
+        .iter()
+        .map(|o| PredictedObject {
+            id: o.id,
+            object_to_world: o.object_to_world,
+        })
+        .collect();
+    evaluate_arrangement(&gt, &predicted)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use neuroom_core::formats::{write_arrangement, write_rgb};
+    use neuroom_export::testing::{tiny_arrangement, write_tiny_models};
+
+    #[test]
+    fn exports_a_glb_and_a_report_with_metrics_against_the_truth() {
+        let dir = tempfile::tempdir().unwrap();
+        let models = dir.path().join("models");
+        write_tiny_models(&models).unwrap();
+        let truth = tiny_arrangement();
+        let mut solved = truth.clone();
+        let t = &mut solved.objects[0].object_to_world.translation;
+        *t += DVec3::new(0.05, 0.0, 0.0);
+        let (truth_path, solved_path) =
+            (dir.path().join("gt.json"), dir.path().join("solved.json"));
+        write_arrangement(&truth_path, &truth).unwrap();
+        write_arrangement(&solved_path, &solved).unwrap();
+        write_rgb(
+            dir.path().join("tiny.png"),
+            &Image::filled(64, 32, [0.3f32; 3]),
+        )
+        .unwrap();
+        let options = ExportOptions {
+            gltf: Some(dir.path().join("room.glb")),
+            report: Some(dir.path().join("report.html")),
+            truth: Some(truth_path),
+            detail: MeshDetail {
+                object_cell_m: 0.05,
+                room_cell_m: 0.2,
+                ..MeshDetail::default()
+            },
+            render_width: 32,
+            views: 1,
+            ..ExportOptions::default()
+        };
+        let mut stages = Vec::new();
+        let summary = export(&models, &solved_path, &options, &mut |s| {
+            stages.push(s.to_string())
+        })
+        .unwrap();
+        assert!(stages.len() >= 4, "{stages:?}");
+        let (glb, vertices, triangles) = summary.gltf.unwrap();
+        assert!(vertices > 0 && triangles > 0);
+        assert!(gltf::Gltf::from_slice(&std::fs::read(glb).unwrap()).is_ok());
+        let score = summary.score.unwrap();
+        assert_eq!(score.recall, 1.0);
+        let ape = score.mean_position_error_cm.unwrap();
+        assert!(
+            (ape - 5.0 / 3.0).abs() < 1e-6,
+            "one object off by 5 cm of three: {ape}"
+        );
+        assert!(
+            summary.image_agreement.is_some(),
+            "the input was found beside the arrangement"
+        );
+        let html = std::fs::read_to_string(summary.report.unwrap()).unwrap();
+        assert_eq!(
+            html.matches("data:image/png;base64,").count(),
+            3,
+            "input, panorama, one view"
+        );
+        assert!(html.contains("<svg") && html.contains(r#"class="truth""#));
+        assert!(html.contains("ball_1 (1)"));
+    }
+
+    #[test]
+    fn box_downsample_averages_integer_blocks() {
+        let mut img = Image::filled(4, 2, [0.0f32; 3]);
+        img.set(0, 0, [1.0; 3]);
+        let small = box_downsample(&img, 2, 1).unwrap();
+        assert_eq!(*small.get(0, 0), [0.25; 3]);
+        assert!(box_downsample(&img, 3, 1).is_none());
+    }
+}
