@@ -209,7 +209,13 @@ struct Element {
 pub fn read_ply(path: &Path) -> FormatResult<TriMesh> {
     let bytes =
         std::fs::read(path).map_err(|e| FormatError::file(path, format!("cannot read: {e}")))?;
-    let (header, body_start) = split_header(path, &bytes)?;
+    parse_ply(path, &bytes)
+}
+
+/// Parses the bytes of the PLY file `path` (see [`read_ply`]). Vertex positions must be finite and face
+/// indices whole numbers naming an existing vertex.
+pub fn parse_ply(path: &Path, bytes: &[u8]) -> FormatResult<TriMesh> {
+    let (header, body_start) = split_header(path, bytes)?;
     let (format, elements) = parse_header(path, &header)?;
     let body = &bytes[body_start..];
     match format.as_str() {
@@ -314,11 +320,16 @@ fn vertex_layout(path: &Path, vertex: &Element) -> FormatResult<([usize; 3], Opt
 
 /// Turns one face's index list into triangles (fan), checking the indices.
 fn push_face(path: &Path, mesh: &mut TriMesh, idx: &[f64], n_vertices: usize) -> FormatResult<()> {
-    if idx.iter().any(|&i| i < 0.0 || i as usize >= n_vertices) {
+    if let Some(i) = idx
+        .iter()
+        .find(|&&i| i < 0.0 || i.fract() != 0.0 || i >= n_vertices as f64)
+    {
         return Err(FormatError::field(
             path,
             "face",
-            "vertex index out of range",
+            format!(
+                "vertex index {i} is out of range: indices are whole numbers below the vertex count {n_vertices}"
+            ),
         ));
     }
     for k in 1..idx.len().saturating_sub(1) {
@@ -336,20 +347,34 @@ fn color_scale(p: &Property) -> f32 {
     }
 }
 
+/// Appends one vertex, rejecting a position that is not finite (as f32).
 fn store_vertex(
+    path: &Path,
     mesh: &mut TriMesh,
     values: &[f64],
     xyz: [usize; 3],
     rgb: Option<([usize; 3], f32)>,
-) {
-    mesh.positions.push(Vec3::new(
+) -> FormatResult<()> {
+    let p = Vec3::new(
         values[xyz[0]] as f32,
         values[xyz[1]] as f32,
         values[xyz[2]] as f32,
-    ));
+    );
+    if !p.is_finite() {
+        return Err(FormatError::field(
+            path,
+            "vertex",
+            format!(
+                "vertex {} has a non-finite position {p}",
+                mesh.positions.len()
+            ),
+        ));
+    }
+    mesh.positions.push(p);
     if let Some((c, s)) = rgb {
         mesh.colors.push(c.map(|i| values[i] as f32 * s));
     }
+    Ok(())
 }
 
 /// Where the body's numbers come from: whitespace-separated text or little-endian binary.
@@ -420,7 +445,13 @@ fn read_elements(
         } else {
             None
         };
-        for _ in 0..el.count {
+        // An element without properties has no data, however many it declares.
+        let count = if el.properties.is_empty() {
+            0
+        } else {
+            el.count
+        };
+        for _ in 0..count {
             let mut values = Vec::with_capacity(el.properties.len());
             let mut face = Vec::new();
             for p in &el.properties {
@@ -437,7 +468,7 @@ fn read_elements(
             }
             if let Some((xyz, rgb)) = layout {
                 let colors = rgb.map(|c| (c, color_scale(&el.properties[c[0]])));
-                store_vertex(&mut mesh, &values, xyz, colors);
+                store_vertex(path, &mut mesh, &values, xyz, colors)?;
             } else if el.name == "face" {
                 push_face(path, &mut mesh, &face, n_vertices)?;
             }

@@ -409,7 +409,7 @@ fn grayscale_palette_and_sixteen_bit_colour_are_converted_and_reported() {
         &[0xff, 0xff, 0x80, 0x00, 0x00, 0x00],
     );
     let d = read_rgb(&deep).unwrap();
-    assert!(d.conversions.is_empty());
+    assert_eq!(d.conversions, vec![Conversion::SixteenBit]);
     assert!((d.image.data[0][1] - 32768.0 / 65535.0).abs() < 1e-7);
 
     let gray_depth = dir.path().join("gd.png");

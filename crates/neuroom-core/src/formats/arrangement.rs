@@ -2,7 +2,7 @@
 //! "Arrangement"). The same schema holds ground truth and the output of understanding a panorama.
 
 use super::json::{
-    JsonObject, as_integer_in, as_nonempty_str, as_pose, pose_value, read_json, write_json,
+    JsonObject, as_integer_in, as_nonempty_str, as_pose, parse_json, pose_value, write_json,
 };
 use super::room::nonempty;
 use crate::error::{FormatError, FormatResult};
@@ -44,7 +44,14 @@ pub struct ArrangedObject {
 /// Reads an arrangement file, rejecting a wrong format tag, bad poses, and duplicate ids or names.
 pub fn read_arrangement(path: impl AsRef<Path>) -> FormatResult<Arrangement> {
     let file = path.as_ref();
-    let value = read_json(file)?;
+    let bytes =
+        std::fs::read(file).map_err(|e| FormatError::file(file, format!("cannot read: {e}")))?;
+    parse_arrangement(file, &bytes)
+}
+
+/// Parses the bytes of the arrangement file `file`, validating as [`read_arrangement`] does.
+pub fn parse_arrangement(file: &Path, bytes: &[u8]) -> FormatResult<Arrangement> {
+    let value = parse_json(file, bytes)?;
     let top = JsonObject::root(file, &value)?;
     top.check_format(ARRANGEMENT_FORMAT)?;
     let objects = top

@@ -118,15 +118,20 @@ pub fn read_envmap(path: impl AsRef<Path>) -> FormatResult<EnvMap> {
     let path = path.as_ref();
     let bytes =
         std::fs::read(path).map_err(|e| FormatError::file(path, format!("cannot read: {e}")))?;
+    decode_envmap(path, &bytes)
+}
+
+/// Decodes an environment map file held in memory (see [`read_envmap`]); `path` names it in errors.
+pub fn decode_envmap(path: &Path, bytes: &[u8]) -> FormatResult<EnvMap> {
     if bytes.is_empty() {
         return Err(FormatError::file(path, "file is empty"));
     }
     if bytes.starts_with(&EXR_MAGIC) {
-        decode_exr(path, &bytes)
+        decode_exr(path, bytes)
     } else if bytes.starts_with(b"#?") {
-        decode_hdr(path, &bytes)
+        decode_hdr(path, bytes)
     } else if bytes.windows(5).any(|w| w == b"data:") {
-        decode_exr(path, &exr_from_js(path, &bytes)?)
+        decode_exr(path, &exr_from_js(path, bytes)?)
     } else {
         Err(FormatError::file(
             path,
@@ -163,7 +168,9 @@ pub fn exr_from_js(path: &Path, js: &[u8]) -> FormatResult<Vec<u8>> {
     Ok(bytes)
 }
 
-/// Decodes an OpenEXR file's R, G, B channels, checking its size from the header first.
+/// Decodes an OpenEXR file's R, G, B channels, checking its size from the header first. Pixel storage
+/// grows with the rows actually decoded, so a file whose header claims more than its chunks hold costs
+/// memory in proportion to its data, and is then rejected as truncated.
 fn decode_exr(path: &Path, bytes: &[u8]) -> FormatResult<EnvMap> {
     let err = |e: exr::error::Error| FormatError::file(path, format!("cannot decode OpenEXR: {e}"));
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(err)?;
@@ -172,6 +179,24 @@ fn decode_exr(path: &Path, bytes: &[u8]) -> FormatResult<EnvMap> {
         .first()
         .ok_or_else(|| FormatError::file(path, "OpenEXR file has no layer"))?;
     check_size(path, header.layer_size.x(), header.layer_size.y())?;
+    let names: Vec<String> = header
+        .channels
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    if let Some(missing) = ["R", "G", "B"]
+        .iter()
+        .find(|n| !names.iter().any(|c| c == *n))
+    {
+        return Err(FormatError::file(
+            path,
+            format!(
+                "OpenEXR file has no channel {missing} (it has {}); an environment map needs R, G and B",
+                names.join(", ")
+            ),
+        ));
+    }
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -180,9 +205,13 @@ fn decode_exr(path: &Path, bytes: &[u8]) -> FormatResult<EnvMap> {
         .required("G")
         .required("B")
         .collect_pixels(
-            |size, _| (size.width(), vec![[0.0f32; 3]; size.area()]),
+            |size, _| (size.width(), Vec::<[f32; 3]>::new()),
             |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b): (f32, f32, f32)| {
-                px[pos.y() * *w + pos.x()] = [r, g, b]
+                let i = pos.y() * *w + pos.x();
+                if i >= px.len() {
+                    px.resize((pos.y() + 1) * *w, [0.0; 3]);
+                }
+                px[i] = [r, g, b];
             },
         )
         .first_valid_layer()
@@ -190,25 +219,45 @@ fn decode_exr(path: &Path, bytes: &[u8]) -> FormatResult<EnvMap> {
         .from_buffered(Cursor::new(bytes))
         .map_err(err)?;
     let size = image.layer_data.size;
-    finish(
-        path,
-        size.width() as u32,
-        size.height() as u32,
-        image.layer_data.channel_data.pixels.1,
-    )
+    let data = image.layer_data.channel_data.pixels.1;
+    if data.len() != size.area() {
+        return Err(FormatError::file(
+            path,
+            format!(
+                "OpenEXR file holds {} of its {} rows: it is truncated",
+                data.len() / size.width().max(1),
+                size.height()
+            ),
+        ));
+    }
+    finish(path, size.width() as u32, size.height() as u32, data)
 }
 
-/// Decodes a Radiance RGBE file.
+/// Decodes a Radiance RGBE file straight into the map's pixels. Every scanline takes at least 4 bytes
+/// (its run-length header or its first pixel), so a header claiming more rows than that is rejected
+/// before allocating for them.
 fn decode_hdr(path: &Path, bytes: &[u8]) -> FormatResult<EnvMap> {
     let err =
         |e: image::ImageError| FormatError::file(path, format!("cannot decode Radiance HDR: {e}"));
     let decoder = image::codecs::hdr::HdrDecoder::new(Cursor::new(bytes)).map_err(err)?;
     let (w, h) = decoder.dimensions();
     check_size(path, w as usize, h as usize)?;
-    let img = image::DynamicImage::from_decoder(decoder)
-        .map_err(err)?
-        .into_rgb32f();
-    let data = img.pixels().map(|p| p.0).collect();
+    if h as usize * 4 > bytes.len() {
+        return Err(FormatError::file(
+            path,
+            format!(
+                "a {}-byte file cannot hold a {w}×{h} Radiance HDR map: it is truncated or corrupt",
+                bytes.len()
+            ),
+        ));
+    }
+    if decoder.color_type() != image::ColorType::Rgb32F {
+        return Err(FormatError::file(path, "Radiance HDR map is not RGB"));
+    }
+    let mut data = vec![[0.0f32; 3]; w as usize * h as usize];
+    decoder
+        .read_image(bytemuck::cast_slice_mut(&mut data))
+        .map_err(err)?;
     finish(path, w, h, data)
 }
 

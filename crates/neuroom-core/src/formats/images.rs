@@ -1,8 +1,11 @@
 //! Image files: colour (PNG or JPEG), depth (16-bit PNG) and instance masks (8- or 16-bit PNG).
 //!
 //! Readers look at the header before decoding, so a file claiming more than [`MAX_IMAGE_SIDE`] pixels a
-//! side is rejected without allocating for it. Colour readers accept 8- and 16-bit PNG, JPEG, grayscale and
-//! palette images; every conversion they make is reported in [`Decoded::conversions`] so a caller can warn.
+//! side, or more pixels than its length can hold (a truncated or forged file), is rejected without
+//! allocating for it; decoding then needs the raw samples plus the output, no further copy. Colour readers
+//! accept 8- and 16-bit PNG, grayscale and palette PNG, and grayscale, colour and CMYK JPEG; every conversion
+//! they make is reported in [`Decoded::conversions`] so a caller can warn. Each reader has a `decode_*`
+//! twin that takes the file's bytes already in memory.
 //! Depth and mask readers accept only single-channel PNGs and never convert, since a converted depth or id
 //! would be a guess.
 //!
@@ -11,11 +14,13 @@
 
 use crate::error::{FormatError, FormatResult};
 use crate::image::{DepthImage, Image, MaskImage, RgbImage, RgbaImage};
-use image::ImageDecoder;
 use png::{BitDepth, ColorType, Transformations};
 use std::fmt;
 use std::io::Cursor;
 use std::path::Path;
+use zune_core::bytestream::ZCursor;
+use zune_core::colorspace::ColorSpace;
+use zune_core::options::DecoderOptions;
 
 /// Largest accepted width or height, in pixels.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
@@ -31,6 +36,10 @@ pub enum Conversion {
     AlphaDropped,
     /// The file has no alpha channel; alpha was set to 1 everywhere.
     OpaqueAlphaAdded,
+    /// 16-bit samples were scaled to [0, 1] (images are written back with 8 bits).
+    SixteenBit,
+    /// A CMYK (or YCCK) JPEG was converted to RGB.
+    CmykToRgb,
 }
 
 impl fmt::Display for Conversion {
@@ -40,6 +49,8 @@ impl fmt::Display for Conversion {
             Self::PaletteExpanded => "palette colours expanded",
             Self::AlphaDropped => "alpha channel dropped",
             Self::OpaqueAlphaAdded => "no alpha channel: alpha set to 1",
+            Self::SixteenBit => "16-bit samples scaled to [0, 1] (written back as 8-bit)",
+            Self::CmykToRgb => "CMYK JPEG converted to RGB",
         })
     }
 }
@@ -53,19 +64,17 @@ pub struct Decoded<I> {
     pub conversions: Vec<Conversion>,
 }
 
-/// Decoded samples before conversion: `channels` interleaved samples per pixel, normalised to [0, 1].
-struct Samples {
-    width: u32,
-    height: u32,
-    channels: usize,
-    values: Vec<f32>,
-    conversions: Vec<Conversion>,
-}
-
 /// Reads a colour image as sRGB RGB in [0, 1].
 pub fn read_rgb(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbImage>> {
-    read_converted(
-        path.as_ref(),
+    let path = path.as_ref();
+    decode_rgb(path, &read_bytes(path)?)
+}
+
+/// Decodes a colour image file held in memory as sRGB RGB in [0, 1]; `path` names it in errors.
+pub fn decode_rgb(path: &Path, bytes: &[u8]) -> FormatResult<Decoded<RgbImage>> {
+    decode_converted(
+        path,
+        bytes,
         (&[2, 4], Conversion::AlphaDropped),
         |p| match p.len() {
             1 | 2 => [p[0]; 3],
@@ -76,8 +85,15 @@ pub fn read_rgb(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbImage>> {
 
 /// Reads a colour image as sRGB RGBA in [0, 1]; files without alpha get alpha 1.
 pub fn read_rgba(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbaImage>> {
-    read_converted(
-        path.as_ref(),
+    let path = path.as_ref();
+    decode_rgba(path, &read_bytes(path)?)
+}
+
+/// Decodes a colour image file held in memory as sRGB RGBA in [0, 1]; `path` names it in errors.
+pub fn decode_rgba(path: &Path, bytes: &[u8]) -> FormatResult<Decoded<RgbaImage>> {
+    decode_converted(
+        path,
+        bytes,
         (&[1, 3], Conversion::OpaqueAlphaAdded),
         |p| match p.len() {
             1 => [p[0], p[0], p[0], 1.0],
@@ -90,17 +106,22 @@ pub fn read_rgba(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbaImage>> {
 
 /// Decodes a colour image and turns each pixel's samples into `P`; `note` names the channel counts for
 /// which that turn is itself a conversion worth reporting.
-fn read_converted<P>(
+fn decode_converted<P>(
     path: &Path,
+    bytes: &[u8],
     note: (&[usize], Conversion),
     pixel: impl Fn(&[f32]) -> P,
 ) -> FormatResult<Decoded<Image<P>>> {
-    let s = decode_colour(path)?;
+    let s = if is_png(bytes) {
+        decode_colour_png(path, bytes)?
+    } else {
+        decode_jpeg(path, bytes)?
+    };
+    let data = s.pixels(pixel);
     let mut conversions = s.conversions;
     if note.0.contains(&s.channels) {
         conversions.push(note.1);
     }
-    let data = s.values.chunks_exact(s.channels).map(pixel).collect();
     Ok(Decoded {
         image: Image {
             width: s.width,
@@ -114,14 +135,14 @@ fn read_converted<P>(
 /// Reads a 16-bit single-channel depth PNG: metres = value × `unit` (0 stays 0 = no depth).
 pub fn read_depth(path: impl AsRef<Path>, unit: f64) -> FormatResult<DepthImage> {
     let path = path.as_ref();
-    if !super::json::is_positive(unit) {
-        return Err(FormatError::file(
-            path,
-            format!("depth unit must be a positive number, found {unit}"),
-        ));
-    }
-    let bytes = read_bytes(path)?;
-    let mut reader = png_reader(path, &bytes, Transformations::IDENTITY)?;
+    check_unit(path, unit)?;
+    decode_depth(path, &read_bytes(path)?, unit)
+}
+
+/// Decodes a depth PNG held in memory (see [`read_depth`]); `path` names it in errors.
+pub fn decode_depth(path: &Path, bytes: &[u8], unit: f64) -> FormatResult<DepthImage> {
+    check_unit(path, unit)?;
+    let mut reader = png_reader(path, bytes, Transformations::IDENTITY)?;
     let (color, depth) = (reader.info().color_type, reader.info().bit_depth);
     if color != ColorType::Grayscale || depth != BitDepth::Sixteen {
         let hint = if depth == BitDepth::Eight {
@@ -149,11 +170,27 @@ pub fn read_depth(path: impl AsRef<Path>, unit: f64) -> FormatResult<DepthImage>
     })
 }
 
+/// Fails unless the depth unit is a positive finite number.
+fn check_unit(path: &Path, unit: f64) -> FormatResult<()> {
+    if super::json::is_positive(unit) {
+        Ok(())
+    } else {
+        Err(FormatError::file(
+            path,
+            format!("depth unit must be a positive number, found {unit}"),
+        ))
+    }
+}
+
 /// Reads an 8- or 16-bit single-channel instance mask PNG (value = object id, 0 = none).
 pub fn read_mask(path: impl AsRef<Path>) -> FormatResult<MaskImage> {
     let path = path.as_ref();
-    let bytes = read_bytes(path)?;
-    let mut reader = png_reader(path, &bytes, Transformations::IDENTITY)?;
+    decode_mask(path, &read_bytes(path)?)
+}
+
+/// Decodes an instance mask PNG held in memory (see [`read_mask`]); `path` names it in errors.
+pub fn decode_mask(path: &Path, bytes: &[u8]) -> FormatResult<MaskImage> {
+    let mut reader = png_reader(path, bytes, Transformations::IDENTITY)?;
     let (color, depth) = (reader.info().color_type, reader.info().bit_depth);
     if color != ColorType::Grayscale || !matches!(depth, BitDepth::Eight | BitDepth::Sixteen) {
         return Err(FormatError::file(
@@ -182,13 +219,20 @@ pub fn read_mask(path: impl AsRef<Path>) -> FormatResult<MaskImage> {
 /// Reads only the header of a PNG or JPEG and returns its (width, height), checking the size limit.
 pub fn read_image_size(path: impl AsRef<Path>) -> FormatResult<(u32, u32)> {
     let path = path.as_ref();
-    let bytes = read_bytes(path)?;
-    if is_png(&bytes) {
-        let r = png_reader(path, &bytes, Transformations::IDENTITY)?;
+    decode_image_size(path, &read_bytes(path)?)
+}
+
+/// The (width, height) of a PNG or JPEG file held in memory, from its header; `path` names it in errors.
+pub fn decode_image_size(path: &Path, bytes: &[u8]) -> FormatResult<(u32, u32)> {
+    if is_png(bytes) {
+        let r = png_reader(path, bytes, Transformations::IDENTITY)?;
         Ok((r.info().width, r.info().height))
     } else {
-        let d = jpeg_decoder(path, &bytes)?;
-        Ok(d.dimensions())
+        let (d, _) = jpeg_decoder(path, bytes)?;
+        let info = d
+            .info()
+            .ok_or_else(|| jpeg_error(path, "no frame header"))?;
+        Ok((info.width as u32, info.height as u32))
     }
 }
 
@@ -246,12 +290,7 @@ pub fn write_rgba(path: impl AsRef<Path>, image: &RgbaImage) -> FormatResult<()>
 /// depths beyond 65535 units, are errors naming the pixel.
 pub fn write_depth(path: impl AsRef<Path>, image: &DepthImage, unit: f64) -> FormatResult<()> {
     let path = path.as_ref();
-    if !super::json::is_positive(unit) {
-        return Err(FormatError::file(
-            path,
-            format!("depth unit must be a positive number, found {unit}"),
-        ));
-    }
+    check_unit(path, unit)?;
     let mut bytes = Vec::with_capacity(image.data.len() * 2);
     for (i, &d) in image.data.iter().enumerate() {
         let value = depth_value(d as f64, unit).map_err(|m| {
@@ -336,13 +375,35 @@ fn is_png(bytes: &[u8]) -> bool {
     bytes.starts_with(b"\x89PNG\r\n\x1a\n")
 }
 
-/// Decodes a PNG or JPEG colour image to normalised samples.
-fn decode_colour(path: &Path) -> FormatResult<Samples> {
-    let bytes = read_bytes(path)?;
-    if is_png(&bytes) {
-        decode_colour_png(path, &bytes)
-    } else {
-        decode_jpeg(path, &bytes)
+/// Decoded samples before conversion: `channels` interleaved samples per pixel, 8 or 16 bits each.
+struct Samples {
+    width: u32,
+    height: u32,
+    channels: usize,
+    sixteen_bit: bool,
+    raw: Vec<u8>,
+    conversions: Vec<Conversion>,
+}
+
+impl Samples {
+    /// Every pixel's samples, normalised to [0, 1], turned into `P` without an intermediate copy.
+    fn pixels<P>(&self, pixel: impl Fn(&[f32]) -> P) -> Vec<P> {
+        let c = self.channels;
+        let bytes = if self.sixteen_bit { 2 } else { 1 };
+        self.raw
+            .chunks_exact(c * bytes)
+            .map(|px| {
+                let mut s = [0.0f32; 4];
+                for (k, v) in s.iter_mut().take(c).enumerate() {
+                    *v = if self.sixteen_bit {
+                        u16::from_be_bytes([px[2 * k], px[2 * k + 1]]) as f32 / 65535.0
+                    } else {
+                        px[k] as f32 / 255.0
+                    };
+                }
+                pixel(&s[..c])
+            })
+            .collect()
     }
 }
 
@@ -352,13 +413,7 @@ fn decode_colour_png(path: &Path, bytes: &[u8]) -> FormatResult<Samples> {
     let palette = reader.info().color_type == ColorType::Indexed;
     let (w, h, raw) = read_png_frame(path, &mut reader)?;
     let (color, depth) = reader.output_color_type();
-    let values: Vec<f32> = match depth {
-        BitDepth::Sixteen => raw
-            .chunks_exact(2)
-            .map(|b| u16::from_be_bytes([b[0], b[1]]) as f32 / 65535.0)
-            .collect(),
-        _ => raw.iter().map(|&b| b as f32 / 255.0).collect(),
-    };
+    let sixteen_bit = depth == BitDepth::Sixteen;
     let mut conversions = Vec::new();
     if palette {
         conversions.push(Conversion::PaletteExpanded);
@@ -366,57 +421,111 @@ fn decode_colour_png(path: &Path, bytes: &[u8]) -> FormatResult<Samples> {
     if matches!(color, ColorType::Grayscale | ColorType::GrayscaleAlpha) {
         conversions.push(Conversion::GrayToRgb);
     }
+    if sixteen_bit {
+        conversions.push(Conversion::SixteenBit);
+    }
     Ok(Samples {
         width: w,
         height: h,
         channels: color.samples(),
-        values,
+        sixteen_bit,
+        raw,
         conversions,
     })
 }
 
-/// A JPEG decoder whose header has been read and whose size has been checked.
+/// Most pixels one byte of a JPEG file can describe. Every 8×8 block of every component costs at least
+/// one bit of Huffman code (the DC difference), so a file of `n` bytes holds at most 512·n pixels; a
+/// header claiming more belongs to a truncated or forged file, rejected before allocating for it.
+const JPEG_MAX_PIXELS_PER_BYTE: u64 = 512;
+
+/// A JPEG decoder whose header has been read, with its size checked, and the source colour space.
 fn jpeg_decoder<'a>(
     path: &Path,
     bytes: &'a [u8],
-) -> FormatResult<image::codecs::jpeg::JpegDecoder<Cursor<&'a [u8]>>> {
+) -> FormatResult<(zune_jpeg::JpegDecoder<ZCursor<&'a [u8]>>, ColorSpace)> {
     if !bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
         return Err(FormatError::file(path, "not a PNG or JPEG file"));
     }
-    let decoder = image::codecs::jpeg::JpegDecoder::new(Cursor::new(bytes))
-        .map_err(|e| FormatError::file(path, format!("cannot decode JPEG: {e}")))?;
-    let (w, h) = decoder.dimensions();
+    let options = DecoderOptions::default()
+        .set_strict_mode(false)
+        .set_max_width(usize::MAX)
+        .set_max_height(usize::MAX);
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
+    decoder
+        .decode_headers()
+        .map_err(|e| jpeg_error(path, &e.to_string()))?;
+    let info = decoder
+        .info()
+        .ok_or_else(|| jpeg_error(path, "no frame header"))?;
+    let (w, h) = (info.width as u32, info.height as u32);
     check_size(path, w, h)?;
-    Ok(decoder)
+    if w as u64 * h as u64 > JPEG_MAX_PIXELS_PER_BYTE * bytes.len() as u64 {
+        return Err(FormatError::file(
+            path,
+            format!(
+                "a {}-byte file cannot hold a {w}×{h} JPEG: it is truncated or corrupt",
+                bytes.len()
+            ),
+        ));
+    }
+    let space = decoder
+        .input_colorspace()
+        .ok_or_else(|| jpeg_error(path, "no colour space"))?;
+    Ok((decoder, space))
 }
 
-/// Decodes a JPEG (8-bit, grayscale or colour) to normalised samples.
+/// "cannot decode JPEG: …" naming `path`.
+fn jpeg_error(path: &Path, message: &str) -> FormatError {
+    FormatError::file(path, format!("cannot decode JPEG: {message}"))
+}
+
+/// Decodes a JPEG (8-bit grayscale, colour or CMYK) to samples: grayscale stays one channel, everything
+/// else becomes RGB.
 fn decode_jpeg(path: &Path, bytes: &[u8]) -> FormatResult<Samples> {
-    let decoder = jpeg_decoder(path, bytes)?;
-    let (w, h) = decoder.dimensions();
-    let img = image::DynamicImage::from_decoder(decoder)
-        .map_err(|e| FormatError::file(path, format!("cannot decode JPEG: {e}")))?;
-    let gray = matches!(img.color(), image::ColorType::L8 | image::ColorType::L16);
-    let (channels, raw) = if gray {
-        (1, img.into_luma8().into_raw())
+    let (mut decoder, space) = jpeg_decoder(path, bytes)?;
+    let gray = matches!(space, ColorSpace::Luma | ColorSpace::LumaA);
+    let out = if gray {
+        ColorSpace::Luma
     } else {
-        (3, img.into_rgb8().into_raw())
+        ColorSpace::RGB
     };
-    let conversions = if gray {
-        vec![Conversion::GrayToRgb]
-    } else {
-        Vec::new()
+    decoder.set_options(decoder.options().jpeg_set_out_colorspace(out));
+    let raw = decoder
+        .decode()
+        .map_err(|e| jpeg_error(path, &e.to_string()))?;
+    let info = decoder
+        .info()
+        .ok_or_else(|| jpeg_error(path, "no frame header"))?;
+    let (w, h) = (info.width as u32, info.height as u32);
+    let channels = if gray { 1 } else { 3 };
+    if raw.len() != w as usize * h as usize * channels {
+        return Err(jpeg_error(
+            path,
+            "decoded data does not match the image size",
+        ));
+    }
+    let conversions = match space {
+        ColorSpace::Luma | ColorSpace::LumaA => vec![Conversion::GrayToRgb],
+        ColorSpace::CMYK | ColorSpace::YCCK => vec![Conversion::CmykToRgb],
+        _ => Vec::new(),
     };
     Ok(Samples {
         width: w,
         height: h,
         channels,
-        values: raw.iter().map(|&b| b as f32 / 255.0).collect(),
+        sixteen_bit: false,
+        raw,
         conversions,
     })
 }
 
-/// A PNG reader positioned after the header, with the size limit checked.
+/// Most bytes one byte of deflate data can expand to (RFC 1951 codes at most 258 bytes in 2 bits).
+const DEFLATE_MAX_RATIO: u64 = 1032;
+
+/// A PNG reader positioned after the header, with the size limit checked, and the file's size checked
+/// against what it claims to hold: a file too short to hold its pixels even at deflate's best ratio is
+/// rejected before anything is allocated for them.
 fn png_reader<'a>(
     path: &Path,
     bytes: &'a [u8],
@@ -430,7 +539,20 @@ fn png_reader<'a>(
     let reader = decoder
         .read_info()
         .map_err(|e| FormatError::file(path, format!("cannot decode PNG: {e}")))?;
-    check_size(path, reader.info().width, reader.info().height)?;
+    let info = reader.info();
+    check_size(path, info.width, info.height)?;
+    let raw = info.raw_row_length() as u64 * info.height as u64;
+    if raw > DEFLATE_MAX_RATIO * bytes.len() as u64 {
+        return Err(FormatError::file(
+            path,
+            format!(
+                "a {}-byte file cannot hold a {}×{} PNG: it is truncated or corrupt",
+                bytes.len(),
+                info.width,
+                info.height
+            ),
+        ));
+    }
     Ok(reader)
 }
 

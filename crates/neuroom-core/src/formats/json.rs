@@ -17,13 +17,23 @@ use std::path::Path;
 /// re-orthonormalised, so values written with 6–9 significant digits are accepted exactly as meant.
 pub const POSE_TOLERANCE: f64 = 1e-3;
 
-/// Reads `path` and parses it as JSON. Errors name the file, and the line and column of a syntax error;
-/// `NaN` and `Infinity` (which are not JSON) are called out by name.
+/// Reads `path` and parses it as JSON (see [`parse_json`]).
 pub fn read_json(path: &Path) -> FormatResult<Value> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| FormatError::file(path, format!("cannot read: {e}")))?;
-    serde_json::from_str(&text).map_err(|e| {
-        let hint = if ["NaN", "Infinity"].iter().any(|w| text.contains(w)) {
+    let bytes =
+        std::fs::read(path).map_err(|e| FormatError::file(path, format!("cannot read: {e}")))?;
+    parse_json(path, &bytes)
+}
+
+/// Parses the bytes of the JSON file `path`. Errors name the file, and the line and column of a syntax
+/// error; an empty file, text that is not UTF-8, and `NaN` and `Infinity` (which are not JSON) are called
+/// out by name.
+pub fn parse_json(path: &Path, bytes: &[u8]) -> FormatResult<Value> {
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Err(FormatError::file(path, "file is empty"));
+    }
+    serde_json::from_slice(bytes).map_err(|e| {
+        let has = |w: &[u8]| bytes.windows(w.len()).any(|x| x == w);
+        let hint = if has(b"NaN") || has(b"Infinity") {
             " (NaN and Infinity are not valid JSON numbers)"
         } else {
             ""

@@ -12,14 +12,17 @@ pub mod json;
 pub mod room;
 pub mod transforms;
 
-pub use arrangement::{ArrangedObject, Arrangement, read_arrangement, write_arrangement};
-pub use envmap::{EnvMap, read_envmap};
-pub use images::{
-    Conversion, Decoded, MAX_IMAGE_SIDE, check_same_size, read_depth, read_image_size, read_mask,
-    read_rgb, read_rgba, write_depth, write_mask, write_rgb, write_rgba,
+pub use arrangement::{
+    ArrangedObject, Arrangement, parse_arrangement, read_arrangement, write_arrangement,
 };
-pub use room::{BackgroundSpec, Room, RoomObject, read_room, write_room};
-pub use transforms::{Capture, Frame, read_capture, write_capture};
+pub use envmap::{EnvMap, decode_envmap, read_envmap};
+pub use images::{
+    Conversion, Decoded, MAX_IMAGE_SIDE, check_same_size, decode_depth, decode_image_size,
+    decode_mask, decode_rgb, decode_rgba, read_depth, read_image_size, read_mask, read_rgb,
+    read_rgba, write_depth, write_mask, write_rgb, write_rgba,
+};
+pub use room::{BackgroundSpec, Room, RoomObject, parse_room, read_room, write_room};
+pub use transforms::{Capture, Frame, parse_capture, read_capture, write_capture};
 
 use crate::error::{FormatError, FormatResult};
 use std::collections::HashSet;

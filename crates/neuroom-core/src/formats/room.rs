@@ -1,8 +1,8 @@
 //! `room.json`: the closed scene, its background capture and its movable objects (FORMAT.md, "A room").
 
 use super::json::{
-    JsonObject, as_integer_in, as_nonempty_str, as_pose, as_positive_vec3, as_strings, pose_value,
-    read_json, write_json,
+    JsonObject, as_integer_in, as_nonempty_str, as_pose, as_positive_vec3, as_strings, parse_json,
+    pose_value, write_json,
 };
 use crate::error::{FormatError, FormatResult};
 use crate::pose::Pose;
@@ -93,9 +93,17 @@ pub fn read_room(path: impl AsRef<Path>) -> FormatResult<Room> {
     } else {
         path.to_path_buf()
     };
+    let bytes =
+        std::fs::read(&file).map_err(|e| FormatError::file(&file, format!("cannot read: {e}")))?;
+    parse_room(&file, &bytes)
+}
+
+/// Parses the bytes of the room file `file` (its folder becomes [`Room::root`]), validating as
+/// [`read_room`] does.
+pub fn parse_room(file: &Path, bytes: &[u8]) -> FormatResult<Room> {
     let root = file.parent().map(Path::to_path_buf).unwrap_or_default();
-    let value = read_json(&file)?;
-    let top = JsonObject::root(&file, &value)?;
+    let value = parse_json(file, bytes)?;
+    let top = JsonObject::root(file, &value)?;
     top.check_format(ROOM_FORMAT)?;
     let background = top.object("background")?;
     let background = BackgroundSpec {
@@ -106,7 +114,7 @@ pub fn read_room(path: impl AsRef<Path>) -> FormatResult<Room> {
         .iter()
         .map(read_object)
         .collect::<FormatResult<Vec<_>>>()?;
-    super::check_unique(&file, objects.iter().map(|o| (o.id, o.name.as_str())))?;
+    super::check_unique(file, objects.iter().map(|o| (o.id, o.name.as_str())))?;
     Ok(Room {
         root,
         name: top.required("name", as_nonempty_str)?.to_string(),

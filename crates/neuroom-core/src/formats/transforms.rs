@@ -5,7 +5,7 @@
 
 use super::json::{
     JsonObject, as_integer_in, as_nonempty_str, as_number, as_pose, as_positive, as_str,
-    is_positive, number_value, pose_value, read_json, write_json,
+    is_positive, number_value, parse_json, pose_value, write_json,
 };
 use super::room::path_string;
 use crate::camera::Pinhole;
@@ -83,8 +83,16 @@ pub fn read_capture(path: impl AsRef<Path>) -> FormatResult<Capture> {
     } else {
         path.to_path_buf()
     };
-    let value = read_json(&file)?;
-    let top = JsonObject::root(&file, &value)?;
+    let bytes =
+        std::fs::read(&file).map_err(|e| FormatError::file(&file, format!("cannot read: {e}")))?;
+    parse_capture(&file, &bytes)
+}
+
+/// Parses the bytes of the capture file `file` (its folder becomes [`Capture::dir`]), validating as
+/// [`read_capture`] does.
+pub fn parse_capture(file: &Path, bytes: &[u8]) -> FormatResult<Capture> {
+    let value = parse_json(file, bytes)?;
+    let top = JsonObject::root(file, &value)?;
     check_camera_model(&top)?;
     let defaults = read_intrinsics(&top)?;
     let frames = top.objects("frames")?;
