@@ -10,6 +10,7 @@
 //! `fraction_of_peak` are effective figures: the rate at which the nominal work gets done.
 
 use crate::batch::Tape;
+use crate::clock::process_cpu_seconds;
 use crate::neus::{CodeSet, NeusConfig, NeusField, Outputs};
 use crate::params::Params;
 use crate::rng::SplitMix;
@@ -47,20 +48,6 @@ pub struct BenchReport {
     /// figure would be on an otherwise idle machine (the mean over the repetitions, so a little pessimistic).
     #[serde(default)]
     pub fwd_bwd_points_per_s_cpu: f64,
-}
-
-/// CPU time (user + system) of this process so far, in seconds; 0 where `/proc` is missing.
-fn process_cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    // Fields after the parenthesised command name; utime and stime are the 12th and 13th of them.
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let ticks: f64 = rest
-        .split_whitespace()
-        .skip(11)
-        .take(2)
-        .filter_map(|v| v.parse::<f64>().ok())
-        .sum();
-    ticks / 100.0
 }
 
 /// FLOPs per point of (forward, forward + backward) of a field.

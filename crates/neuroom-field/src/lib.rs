@@ -17,6 +17,7 @@ pub mod adam;
 pub mod batch;
 pub mod bench;
 pub mod checkpoint;
+pub mod clock;
 pub mod field;
 pub mod hash;
 pub mod kernel;

@@ -1,6 +1,7 @@
 //! Settings of the holistic fit: sampling, schedule, learning rates, loss weights and ablation switches.
 
 use crate::relations::RelationRules;
+use crate::search::SearchConfig;
 use neuroom_render::RenderConfig;
 use serde::{Deserialize, Serialize};
 
@@ -52,6 +53,24 @@ impl Default for LossSwitches {
     }
 }
 
+/// What the second stage adapts to the panorama's lighting.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct AdaptSwitches {
+    /// Per-object and background tone adjusters.
+    pub tone: bool,
+    /// Light and appearance code rows of the models.
+    pub codes: bool,
+}
+
+impl Default for AdaptSwitches {
+    fn default() -> Self {
+        Self {
+            tone: true,
+            codes: true,
+        }
+    }
+}
+
 /// Everything a fit needs besides its inputs.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitConfig {
@@ -67,9 +86,10 @@ pub struct FitConfig {
     pub lr_translation: f32,
     /// Adam rate of the 6D rotation components.
     pub lr_rotation: f32,
-    /// Factor the pose rates fall to, exponentially, by the end of stage 1 (1: constant rates, the
-    /// default: on the analytic room of five cuboids, 200 and 300 iterations converge as well or better
-    /// at constant rates than falling to 0.3 or 0.1).
+    /// Factor the pose rates fall to, exponentially, by the end of stage 1 (1: constant rates). On the
+    /// analytic room of five cuboids, 200 and 300 iterations converge as well or better at constant
+    /// rates; on trained rooms the photometric gradient is noisy, Adam turns it into steps of the full
+    /// rate, and constant rates leave objects wandering by centimetres: the default falls to 0.1.
     pub lr_final_factor: f32,
     /// Adam rate of tone shifts and scales.
     pub lr_tone: f32,
@@ -79,6 +99,15 @@ pub struct FitConfig {
     pub weights: LossWeights,
     /// Ablation switches.
     pub losses: LossSwitches,
+    /// Render-and-compare search of each object's horizontal position and yaw before stage 1 (`None`:
+    /// gradient descent only).
+    pub search: Option<SearchConfig>,
+    /// Adapt the tone adjusters during stage 1 as well, so that a change of lighting is explained by
+    /// colour rather than by moving objects (on trained rooms lit differently from their captures the
+    /// photometric gradient otherwise drags objects away from their true poses).
+    pub tone_in_pose_stage: bool,
+    /// What stage 2 adapts (the paper's Table 2: none, tone only, light code only, both).
+    pub adapt: AdaptSwitches,
     /// Keep objects flagged upright exactly upright: their rotation is projected onto yaw-only after each
     /// step (the gravity loss is then zero); off, only the gravity loss holds them. On by default: on the
     /// analytic room of five cuboids (3 seeds of the benchmark noise) it gives 0.13 cm / 0.09° mean
@@ -114,11 +143,14 @@ impl Default for FitConfig {
             appearance_iterations: 100,
             lr_translation: 1e-2,
             lr_rotation: 1e-2,
-            lr_final_factor: 1.0,
+            lr_final_factor: 0.1,
             lr_tone: 1e-2,
             lr_codes: 1e-2,
             weights: LossWeights::default(),
             losses: LossSwitches::default(),
+            adapt: AdaptSwitches::default(),
+            tone_in_pose_stage: true,
+            search: Some(SearchConfig::default()),
             yaw_only_upright: true,
             observation_tolerance_deg: 10.0,
             epsilon: 0.025,

@@ -13,6 +13,7 @@ use crate::pose_grad::{self, PoseGrad};
 use crate::probe::Probe;
 use crate::relations::{Hint, Relation, RoomBox, generate_relations};
 use crate::sampling::{PixelSampler, dilate, object_mask};
+use crate::search::search_poses;
 use crate::surface::{SurfacePoints, sample_surface};
 use crate::violation::violation_loss;
 use glam::{Mat3, Vec3};
@@ -98,6 +99,8 @@ impl IterationLog {
 pub struct FitTimings {
     /// Surface points, first relations and mask (seconds).
     pub setup_s: f64,
+    /// Render-and-compare search (seconds).
+    pub search_s: f64,
     /// Stage 1 (seconds).
     pub poses_s: f64,
     /// Stage 2 (seconds).
@@ -242,6 +245,11 @@ pub fn fit<F: FitField>(
         .preview_height
         .map(|h| render_panorama(&fitter.scene, camera_to_world, h, config));
     timings.previews_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    if config.pose_iterations > 0 {
+        fitter.search();
+    }
+    timings.search_s = t.elapsed().as_secs_f64();
     let mut log = Vec::with_capacity(config.pose_iterations + config.appearance_iterations);
     let t = Instant::now();
     for it in 0..config.pose_iterations {
@@ -460,6 +468,29 @@ impl<'a, F: FitField> Fitter<'a, F> {
         (loss, grad)
     }
 
+    /// The render-and-compare search of positions and yaws ([`crate::search`]), if configured; the
+    /// relations and the object mask are regenerated after it.
+    pub fn search(&mut self) {
+        let Some(search) = self.config.search else {
+            return;
+        };
+        search_poses(
+            &mut self.scene,
+            &mut self.renderer,
+            &self.surfaces,
+            &self.room,
+            &self.camera,
+            &self.camera_to_world,
+            self.panorama,
+            &search,
+            &mut self.rng,
+        );
+        if self.config.yaw_only_upright {
+            self.project_upright();
+        }
+        self.refresh();
+    }
+
     /// One iteration of stage 1 (poses).
     pub fn pose_step(&mut self, iteration: usize) -> IterationLog {
         if iteration > 0 && iteration.is_multiple_of(self.config.relation_interval.max(1)) {
@@ -475,6 +506,9 @@ impl<'a, F: FitField> Fitter<'a, F> {
             None
         };
         self.geometric_losses(&mut log);
+        if let (true, Some(grad)) = (self.config.tone_in_pose_stage, &render_grad) {
+            self.step_tones(grad);
+        }
         self.flatten_pose_grads(render_grad.as_ref());
         let progress = iteration as f32 / self.config.pose_iterations.max(1) as f32;
         self.apply_pose_step(self.config.lr_final_factor.powf(progress));
@@ -577,10 +611,15 @@ impl<'a, F: FitField> Fitter<'a, F> {
     /// One iteration of stage 2 (tone adjusters and code rows; poses frozen).
     pub fn appearance_step(&mut self, iteration: usize) -> IterationLog {
         let mut log = self.empty_log(iteration, Stage::Appearance);
-        let (loss, grad) = self.photometric(iteration, true);
+        let adapt = self.config.adapt;
+        let (loss, grad) = self.photometric(iteration, adapt.codes);
         log.photometric = loss;
-        self.step_tones(&grad);
-        self.step_codes();
+        if adapt.tone {
+            self.step_tones(&grad);
+        }
+        if adapt.codes {
+            self.step_codes();
+        }
         log
     }
 

@@ -43,13 +43,15 @@ pub mod pose_grad;
 pub mod probe;
 pub mod relations;
 pub mod sampling;
+pub mod search;
 pub mod surface;
 pub mod violation;
 
 pub use codes::FitField;
-pub use config::{FitConfig, LossSwitches, LossWeights};
+pub use config::{AdaptSwitches, FitConfig, LossSwitches, LossWeights};
 pub use fit::{
     FitError, FitReport, FitResult, FitTimings, FittedObject, FittedObjectReport, Fitter,
     IterationLog, ObjectInit, Stage, fit, render_panorama,
 };
 pub use relations::{Hint, Relation, RelationRules, RoomBox};
+pub use search::SearchConfig;

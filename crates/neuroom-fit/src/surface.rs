@@ -1,6 +1,8 @@
 //! Surface points of an object, found once at setup on its SDF's zero set: points drawn on the faces of
 //! its box march inward along the face's normal by sphere tracing until they reach the surface. Each point
 //! remembers its face, so the bottom points are the object's support and the back points its wall contact.
+//! The contact faces (bottom, back) also get their outermost points from a dense trace, so that thin
+//! supports such as chair legs are represented.
 
 use glam::Vec3;
 use neuroom_field::Field;
@@ -74,7 +76,8 @@ const HIT: f32 = 2e-3;
 
 /// About `count` surface points of the field inside the box of half extents `half`: faces drawn in
 /// proportion to their area, points uniform on them (inset by 1 %), traced inward; points that reach no
-/// surface are dropped. Deterministic for a `seed`.
+/// surface are dropped; then the contact points of the bottom and the back ([`CONTACT_KEEP`] at most
+/// each). Deterministic for a `seed`.
 pub fn sample_surface<F: Field>(field: &F, half: Vec3, count: usize, seed: u64) -> SurfacePoints {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let areas = Face::ALL.map(|f| {
@@ -103,7 +106,53 @@ pub fn sample_surface<F: Field>(field: &F, half: Vec3, count: usize, seed: u64) 
         starts.push(p);
         faces.push(face);
     }
-    trace_inward(field, half, starts, faces)
+    let mut surface = trace_inward(field, half, starts, faces);
+    for face in [Face::Bottom, Face::Back] {
+        let contact = contact_points(field, half, face, &mut rng);
+        surface.faces.extend(contact.iter().map(|_| face));
+        surface.points.extend(contact);
+    }
+    surface
+}
+
+/// Starts traced per contact face (bottom, back) on top of the area-proportional ones: thin supports
+/// (chair legs) cover a few percent of a face, and the magnetic loss needs points on them.
+const CONTACT_STARTS: usize = 2048;
+/// Contact points kept are within this distance (metres) of the face's outermost surface point.
+const CONTACT_BAND: f32 = 0.01;
+/// Most contact points kept per face.
+const CONTACT_KEEP: usize = 48;
+
+/// The outermost surface points seen from `face`: a dense set of starts traced inward, of which those
+/// within [`CONTACT_BAND`] of the outermost are kept (at most [`CONTACT_KEEP`], evenly spread).
+fn contact_points<F: Field>(field: &F, half: Vec3, face: Face, rng: &mut impl Rng) -> Vec<Vec3> {
+    let (axis, sign) = face.axis_sign();
+    let starts: Vec<Vec3> = (0..CONTACT_STARTS)
+        .map(|_| {
+            let mut p = Vec3::ZERO;
+            for a in 0..3 {
+                p[a] = half[a] * (0.99 * (2.0 * rng.random::<f32>() - 1.0));
+            }
+            p[axis] = sign * half[axis];
+            p
+        })
+        .collect();
+    let traced = trace_inward(field, half, starts, vec![face; CONTACT_STARTS]);
+    let Some(outer) = traced
+        .points
+        .iter()
+        .map(|p| sign * p[axis])
+        .max_by(f32::total_cmp)
+    else {
+        return Vec::new();
+    };
+    let band: Vec<Vec3> = traced
+        .points
+        .into_iter()
+        .filter(|p| sign * p[axis] >= outer - CONTACT_BAND)
+        .collect();
+    let stride = band.len().div_ceil(CONTACT_KEEP).max(1);
+    band.into_iter().step_by(stride).collect()
 }
 
 /// Marches every start point along its face's inward normal to the surface.
@@ -140,5 +189,49 @@ fn trace_inward<F: Field>(
     SurfacePoints {
         points: kept.iter().map(|&k| points[k]).collect(),
         faces: kept.iter().map(|&k| faces[k]).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use neuroom_field::{AnalyticColor, AnalyticField};
+
+    /// A stool: a seat 0.4 m above the floor on four 3 cm legs, in a box of half extents 0.2 × 0.2 × 0.25.
+    fn stool() -> AnalyticField {
+        let color = AnalyticColor::Constant(Vec3::splat(0.5));
+        let mut parts = vec![AnalyticField::Cuboid {
+            centre: Vec3::new(0.0, 0.0, 0.2),
+            half: Vec3::new(0.2, 0.2, 0.03),
+            color,
+        }];
+        for (x, y) in [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)] {
+            parts.push(AnalyticField::Cuboid {
+                centre: Vec3::new(0.17 * x, 0.17 * y, -0.03),
+                half: Vec3::new(0.015, 0.015, 0.22),
+                color,
+            });
+        }
+        AnalyticField::Union(parts)
+    }
+
+    #[test]
+    fn bottom_points_include_the_feet_of_thin_legs() {
+        let half = Vec3::new(0.2, 0.2, 0.25);
+        let surface = sample_surface(&stool(), half, 256, 1);
+        let bottom: Vec<Vec3> = surface.on(Face::Bottom).collect();
+        let feet = bottom.iter().filter(|p| p.z < -0.24).count();
+        assert!(
+            feet >= 8,
+            "{feet} of {} bottom points on the feet",
+            bottom.len()
+        );
+        let lowest = bottom.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
+        assert!(
+            (lowest + 0.25).abs() < 2e-3,
+            "lowest bottom point at {lowest}"
+        );
+        // The area-proportional points alone would mostly land on the seat's underside.
+        assert!(bottom.iter().any(|p| p.z > 0.1));
     }
 }

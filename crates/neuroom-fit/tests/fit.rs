@@ -194,3 +194,29 @@ fn appearance_stage_adapts_tones_to_the_panorama() {
     println!("PSNR before {before:.1} dB, after {after:.1} dB");
     assert!(after > before + 8.0);
 }
+
+/// The render-and-compare search alone (one gradient step after it) brings the noisy start closer.
+#[test]
+fn search_moves_objects_towards_their_images() {
+    let config = FitConfig {
+        pose_iterations: 1,
+        ..config()
+    };
+    let with = run(3, 0, &config).after;
+    let without = run(
+        3,
+        0,
+        &FitConfig {
+            search: None,
+            ..config
+        },
+    )
+    .after;
+    let ape = |s: &ArrangementScore| s.mean_position_error_cm.unwrap();
+    assert!(
+        ape(&with) < 0.5 * ape(&without),
+        "{} vs {}",
+        ape(&with),
+        ape(&without)
+    );
+}

@@ -3,7 +3,7 @@
 //! held-out views and, for objects, against `meshes/<object>.ply` when the room has it.
 
 use crate::augment::Augmentation;
-use crate::config::TrainConfig;
+use crate::config::{BudgetClock, TrainConfig};
 use crate::eval::{LightCodeCheck, evaluate};
 use crate::mesh_extract::Chamfer;
 use crate::progress::Progress;
@@ -31,8 +31,12 @@ pub struct ModelBenchReport {
     pub rays: usize,
     /// Steps taken.
     pub steps: u64,
-    /// Seconds in training steps.
+    /// Seconds in training steps, on the budget's clock.
     pub train_seconds: f64,
+    /// The clock of `train_seconds` and of the budget.
+    pub budget_clock: BudgetClock,
+    /// Wall-clock seconds of the training steps.
+    pub train_wall_seconds: f64,
     /// Seconds reading the capture.
     pub load_seconds: f64,
     /// Seconds evaluating.
@@ -92,7 +96,9 @@ fn bench_model(
         let augmentation = Augmentation::load(&config.env_maps)?;
         let (data, bounds, load_seconds) = load_model_data(spec, config)?;
         let mut trainer = Trainer::new(&data, &augmentation, config, spec.kind, bounds);
+        let wall = Instant::now();
         trainer.run(&spec.name, None, progress)?;
+        let train_wall_seconds = wall.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let fc = trainer.field.config();
         let field_bounds = crate::dataset::Aabb {
@@ -115,6 +121,8 @@ fn bench_model(
             rays: data.rays.len(),
             steps: trainer.state.step,
             train_seconds: trainer.state.elapsed_s,
+            budget_clock: config.budget_clock,
+            train_wall_seconds,
             load_seconds,
             eval_seconds: t0.elapsed().as_secs_f64(),
             psnr_db: eval.psnr_db,

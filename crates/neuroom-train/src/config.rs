@@ -31,6 +31,18 @@ pub struct ModelBudget {
     pub shell_min: f32,
 }
 
+/// The clock a time budget is counted on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BudgetClock {
+    /// Wall-clock seconds.
+    #[default]
+    Wall,
+    /// CPU seconds of the process divided by its worker threads: what the wall clock would read on an
+    /// otherwise idle machine with that many cores. Benchmarks on a shared machine use it so the step
+    /// count does not depend on other programs.
+    Cpu,
+}
+
 /// Everything [`crate::room::train_room`] and [`crate::trainer::Trainer`] need to know.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrainConfig {
@@ -71,6 +83,9 @@ pub struct TrainConfig {
     pub seed: u64,
     /// Worker threads (0 = rayon's default). Bit-identical resumption needs the same count.
     pub threads: usize,
+    /// The clock of the time budgets.
+    #[serde(default)]
+    pub budget_clock: BudgetClock,
 }
 
 impl Default for TrainConfig {
@@ -127,6 +142,7 @@ impl Default for TrainConfig {
             appearance_per_frame: false,
             seed: 1,
             threads: 0,
+            budget_clock: BudgetClock::Wall,
         }
     }
 }

@@ -6,8 +6,8 @@
 //! - PSNR (sRGB, over black) on the model's pixels: the object's pixels, or every valid background pixel;
 //! - median absolute error of the rendered distance (`depth / opacity`) where the depth is known;
 //! - Chamfer distance between the extracted mesh ([`crate::mesh_extract`]) and the ground truth;
-//! - the light-code check: a held-out view re-lit by an augmentation map, rendered with that map's code and
-//!   with code 0, PSNR of each against the re-lit image.
+//! - the light-code check: held-out views re-lit by an augmentation map, rendered with that map's code and
+//!   with code 0, PSNR of each against the re-lit images.
 
 use crate::augment::Augmentation;
 use crate::dataset::{Aabb, PixelClass, View};
@@ -213,6 +213,19 @@ pub struct ViewScore {
     pub count: usize,
 }
 
+impl ViewScore {
+    /// Adds another view's errors.
+    pub fn add(&mut self, other: ViewScore) {
+        self.squared_error += other.squared_error;
+        self.count += other.count;
+    }
+
+    /// PSNR (dB) of the summed errors.
+    pub fn psnr(&self) -> f64 {
+        psnr_of(self.squared_error / self.count.max(1) as f64)
+    }
+}
+
 /// PSNR (dB) from a mean squared error.
 pub fn psnr_of(mse: f64) -> f64 {
     -10.0 * mse.max(1e-12).log10()
@@ -300,7 +313,7 @@ pub struct EvalReport {
     pub light_codes: Vec<LightCodeCheck>,
 }
 
-/// The light-code check of one augmentation map (on the first held-out view).
+/// The light-code check of one augmentation map (on up to [`LIGHT_CHECK_VIEWS`] held-out views).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct LightCodeCheck {
     /// Map name.
@@ -311,32 +324,45 @@ pub struct LightCodeCheck {
     pub psnr_with_code_0_db: f64,
 }
 
-/// The light-code check on `view`: each augmentation map's re-lit image against renders with the map's
-/// code and with code 0 (rendered once).
+/// Held-out views the light-code check uses (spread over the capture): one view alone may see the object
+/// from an unusual side, all of them would multiply the evaluation time by the number of maps.
+pub const LIGHT_CHECK_VIEWS: usize = 3;
+
+/// The light-code check: each augmentation map's re-lit views against renders with the map's code and
+/// with code 0 (rendered once per view), errors summed over up to [`LIGHT_CHECK_VIEWS`] views.
 fn light_code_checks(
     field: &NeusField<f32>,
-    view: &View,
+    views: &[View],
     bounds: &Aabb,
     augmentation: &Augmentation,
     first_augmented: usize,
     options: &RenderOptions,
 ) -> Vec<LightCodeCheck> {
-    let surface = |i: usize| view.class[i] == PixelClass::Surface;
-    let psnr = |rgb: &[[f32; 3]], target: &[[f32; 3]]| {
-        let s = color_error(view, rgb, target);
-        psnr_of(s.squared_error / s.count.max(1) as f64)
+    let picked: Vec<&View> = match views.len() {
+        0 => Vec::new(),
+        n if n <= LIGHT_CHECK_VIEWS => views.iter().collect(),
+        n => (0..LIGHT_CHECK_VIEWS)
+            .map(|k| &views[k * (n - 1) / (LIGHT_CHECK_VIEWS - 1)])
+            .collect(),
     };
-    let plain = render_view(field, view, bounds, 0, options, &surface);
-    (0..augmentation.len())
-        .map(|k| {
+    let mut coded = vec![ViewScore::default(); augmentation.len()];
+    let mut plain = vec![ViewScore::default(); augmentation.len()];
+    for view in picked {
+        let surface = |i: usize| view.class[i] == PixelClass::Surface;
+        let code_0 = render_view(field, view, bounds, 0, options, &surface);
+        for k in 0..augmentation.len() {
             let target = relit_target(view, augmentation, k);
             let code = (first_augmented + k) as u32;
-            let coded = render_view(field, view, bounds, code, options, &surface);
-            LightCodeCheck {
-                name: augmentation.names[k].clone(),
-                psnr_with_code_db: psnr(&coded.rgb, &target),
-                psnr_with_code_0_db: psnr(&plain.rgb, &target),
-            }
+            let with_code = render_view(field, view, bounds, code, options, &surface);
+            coded[k].add(color_error(view, &with_code.rgb, &target));
+            plain[k].add(color_error(view, &code_0.rgb, &target));
+        }
+    }
+    (0..augmentation.len())
+        .map(|k| LightCodeCheck {
+            name: augmentation.names[k].clone(),
+            psnr_with_code_db: coded[k].psnr(),
+            psnr_with_code_0_db: plain[k].psnr(),
         })
         .collect()
 }
@@ -357,9 +383,7 @@ pub fn evaluate(
     for view in views {
         let surface = |i: usize| view.class[i] == PixelClass::Surface;
         let r = render_view(field, view, bounds, view.light as u32, &options, &surface);
-        let s = color_error(view, &r.rgb, &view.rgb);
-        total.squared_error += s.squared_error;
-        total.count += s.count;
+        total.add(color_error(view, &r.rgb, &view.rgb));
         errors.extend(distance_errors(view, &r));
         let surface = (0..view.rgb.len()).filter(|&i| view.class[i] == PixelClass::Surface);
         for i in surface {
@@ -367,15 +391,17 @@ pub fn evaluate(
             hit += usize::from(r.opacity[i] > 0.5);
         }
     }
-    let light_codes = match views.first() {
-        Some(view) => {
-            light_code_checks(field, view, bounds, augmentation, first_augmented, &options)
-        }
-        None => Vec::new(),
-    };
+    let light_codes = light_code_checks(
+        field,
+        views,
+        bounds,
+        augmentation,
+        first_augmented,
+        &options,
+    );
     EvalReport {
         views: views.len(),
-        psnr_db: psnr_of(total.squared_error / total.count.max(1) as f64),
+        psnr_db: total.psnr(),
         median_depth_error_m: median(errors),
         coverage: hit as f32 / pixels.max(1) as f32,
         light_codes,

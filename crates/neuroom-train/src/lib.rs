@@ -21,7 +21,7 @@ pub mod rng;
 pub mod room;
 pub mod trainer;
 
-pub use config::{ModelBudget, TrainConfig};
+pub use config::{BudgetClock, ModelBudget, TrainConfig};
 pub use room::{
     Manifest, ModelEntry, RoomModels, TrainError, TrainSummary, load_room_models, train_room,
 };

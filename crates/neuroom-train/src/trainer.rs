@@ -12,7 +12,7 @@
 //! the generator, Adam's moments and the fitted step count, and resuming continues bit for bit.
 
 use crate::augment::Augmentation;
-use crate::config::{ModelBudget, TrainConfig};
+use crate::config::{BudgetClock, ModelBudget, TrainConfig};
 use crate::dataset::{Aabb, Dataset};
 use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sample_zone, sdf_loss};
 use crate::progress::Progress;
@@ -20,6 +20,7 @@ use crate::rng::Pcg32;
 use crate::room::TrainError;
 use glam::Vec3;
 use neuroom_field::checkpoint::{self, CheckpointError};
+use neuroom_field::clock::process_cpu_seconds;
 use neuroom_field::{
     Adam, AdamConfig, CodeSet, Codes, NUM_GROUPS, NeusConfig, NeusField, Outputs, Params, Schedule,
     Tape,
@@ -363,6 +364,7 @@ impl<'a> Trainer<'a> {
     /// One optimisation step; returns its loss.
     pub fn step(&mut self) -> LossParts {
         let start = Instant::now();
+        let cpu_start = process_cpu_seconds();
         let mut lap = Lap(Instant::now());
         let levels = self.config.start_levels
             + (self.state.step / self.config.steps_per_level.max(1)) as usize;
@@ -393,7 +395,12 @@ impl<'a> Trainer<'a> {
         prof.steps += 1;
         self.state.profile = prof;
         self.state.step += 1;
-        self.state.elapsed_s += start.elapsed().as_secs_f64();
+        self.state.elapsed_s += match self.config.budget_clock {
+            BudgetClock::Wall => start.elapsed().as_secs_f64(),
+            BudgetClock::Cpu => {
+                (process_cpu_seconds() - cpu_start) / rayon::current_num_threads() as f64
+            }
+        };
         self.state.last = parts;
         self.calibrate();
         parts

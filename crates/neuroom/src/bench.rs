@@ -125,13 +125,18 @@ pub fn describe_render(r: &neuroom_render::bench::RenderBenchReport) -> String {
 }
 
 /// Trains one model of the room (`background` or an object name) from scratch within `seconds` (default:
-/// the training default) and evaluates it on held-out views.
+/// the training default) and evaluates it on held-out views. With `cpu_clock`, the budget counts CPU
+/// seconds per worker thread, so a shared machine gives the step count of an idle one.
 pub fn train(
     room: &std::path::Path,
     model: &str,
     seconds: Option<f64>,
+    cpu_clock: bool,
 ) -> anyhow::Result<neuroom_train::bench::ModelBenchReport> {
     let mut config = neuroom_train::TrainConfig::default();
+    if cpu_clock {
+        config.budget_clock = neuroom_train::BudgetClock::Cpu;
+    }
     let progress = neuroom_train::progress::Bar::default();
     Ok(if model == "background" {
         config.background.time_budget_s = seconds.or(config.background.time_budget_s);
@@ -147,26 +152,21 @@ pub fn describe_train(r: &neuroom_train::bench::ModelBenchReport) -> String {
     let chamfer = r.chamfer_m.map_or("no GT mesh".to_string(), |c| {
         format!("Chamfer {:.1} mm", c.mean * 1e3)
     });
-    let codes: Vec<String> = r
-        .light_codes
-        .iter()
-        .map(|l| {
-            format!(
-                "{} {:+.1} dB",
-                l.name,
-                l.psnr_with_code_db - l.psnr_with_code_0_db
-            )
-        })
-        .collect();
+    let clock = match r.budget_clock {
+        neuroom_train::BudgetClock::Wall => String::new(),
+        neuroom_train::BudgetClock::Cpu => {
+            format!(" of CPU per thread ({:.0} s wall)", r.train_wall_seconds)
+        }
+    };
     format!(
-        "train {} / {}: {} steps in {:.0} s, held-out PSNR {:.2} dB, median depth error {:.1} mm, {chamfer}, \
-         light codes [{}]",
+        "train {} / {}: {} steps in {:.0} s{clock}, held-out PSNR {:.2} dB, median depth error {:.1} mm, \
+         {chamfer}, light codes [{}]",
         r.room,
         r.model,
         r.steps,
         r.train_seconds,
         r.psnr_db,
         r.median_depth_error_m * 1e3,
-        codes.join(", ")
+        crate::train::light_code_gains(&r.light_codes)
     )
 }

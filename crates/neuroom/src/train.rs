@@ -70,17 +70,6 @@ pub fn describe_model(m: &neuroom_train::ModelEntry) -> String {
         .eval
         .as_ref()
         .map_or("not evaluated".to_string(), |e| {
-            let gains: Vec<String> = e
-                .light_codes
-                .iter()
-                .map(|c| {
-                    format!(
-                        "{} {:+.1} dB",
-                        c.name,
-                        c.psnr_with_code_db - c.psnr_with_code_0_db
-                    )
-                })
-                .collect();
             format!(
                 "held-out PSNR {:.2} dB, median depth error {:.1} mm, coverage {:.0} % ({} views), \
                  light codes [{}]",
@@ -88,7 +77,7 @@ pub fn describe_model(m: &neuroom_train::ModelEntry) -> String {
                 e.median_depth_error_m * 1000.0,
                 e.coverage * 100.0,
                 e.views,
-                gains.join(", ")
+                light_code_gains(&e.light_codes)
             )
         });
     let chamfer = m
@@ -100,4 +89,19 @@ pub fn describe_model(m: &neuroom_train::ModelEntry) -> String {
         "{:<14} {} steps in {:.0} s, inv_s {:.0}: {eval}{chamfer}",
         m.name, m.stats.steps, m.stats.train_seconds, m.stats.inv_s
     )
+}
+
+/// The PSNR gain of each augmentation map's light code over the capture's code, e.g. `studio +7.9 dB`.
+pub(crate) fn light_code_gains(checks: &[neuroom_train::eval::LightCodeCheck]) -> String {
+    let gains: Vec<String> = checks
+        .iter()
+        .map(|c| {
+            format!(
+                "{} {:+.1} dB",
+                c.name,
+                c.psnr_with_code_db - c.psnr_with_code_0_db
+            )
+        })
+        .collect();
+    gains.join(", ")
 }

@@ -45,6 +45,10 @@ struct TrainArgs {
     /// Time budget in seconds (default: the training default for that kind of model).
     #[arg(long)]
     seconds: Option<f64>,
+    /// Count the budget in CPU seconds per worker thread instead of wall-clock seconds: the step count
+    /// of an idle machine with that many cores, even when other programs share this one.
+    #[arg(long)]
+    cpu_clock: bool,
     /// Print the report as JSON after the text.
     #[arg(long)]
     json: bool,
@@ -117,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         }
         Which::Train(a) => {
-            let report = bench::train(&a.room, &a.model, a.seconds)?;
+            let report = bench::train(&a.room, &a.model, a.seconds, a.cpu_clock)?;
             println!("{}", bench::describe_train(&report));
             if a.json {
                 println!("{}", serde_json::to_string(&report)?);
