@@ -28,10 +28,10 @@ pub struct MeshDetail {
 }
 
 impl Default for MeshDetail {
-    /// 1.5 cm for objects, 4 cm for the room, 16 to 160 cells a side.
+    /// 2 cm for objects, 4 cm for the room, 16 to 160 cells a side.
     fn default() -> Self {
         Self {
-            object_cell_m: 0.015,
+            object_cell_m: 0.02,
             room_cell_m: 0.04,
             max_cells: 160,
             min_cells: 16,

@@ -100,14 +100,15 @@ fn camera_pose(v: serde_json::Value) -> anyhow::Result<CameraPose> {
 /// A generated path.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Generated {
-    /// Circling the room's centre at eye height, looking at the middle of the room.
+    /// Circling the room's centre at eye height, looking across it.
     Orbit(usize),
     /// Walking a closed loop around the room, looking ahead.
     Walk(usize),
 }
 
-/// The path `kind` inside the room box `[min, max]`: eye height at 55 % of the room's height, a circle
-/// of 35 % of the smaller half-width for orbits, an ellipse of 55 % of the half-widths for walks.
+/// The path `kind` inside the room box `[min, max]`: eye height at 55 % of the room's height; orbits
+/// circle the centre at 35 % of the smaller half-width looking across the centre at the far side (down
+/// to 30 % of the height), walks follow an ellipse of 55 % of the half-widths looking ahead.
 pub fn generate(kind: Generated, min: DVec3, max: DVec3) -> anyhow::Result<Vec<CameraPose>> {
     let (centre, half) = (0.5 * (min + max), 0.5 * (max - min));
     ensure!(
@@ -122,12 +123,17 @@ pub fn generate(kind: Generated, min: DVec3, max: DVec3) -> anyhow::Result<Vec<C
         }
         Generated::Orbit(n) => {
             let r = 0.35 * half.x.min(half.y);
-            let target = DVec3::new(centre.x, centre.y, min.z + 0.3 * (max.z - min.z));
+            let target_z = min.z + 0.3 * (max.z - min.z);
             Ok((0..n)
                 .map(|k| {
                     let a = angle(k, n);
-                    let eye = DVec3::new(centre.x + r * a.cos(), centre.y + r * a.sin(), eye_z);
-                    CameraPose::LookAt { eye, target }
+                    let out = DVec3::new(a.cos(), a.sin(), 0.0);
+                    let eye = centre + r * out;
+                    let across = centre - 2.0 * r * out;
+                    CameraPose::LookAt {
+                        eye: DVec3::new(eye.x, eye.y, eye_z),
+                        target: DVec3::new(across.x, across.y, target_z),
+                    }
                 })
                 .collect())
         }

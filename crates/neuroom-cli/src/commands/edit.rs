@@ -25,6 +25,7 @@ use super::render::parse_point;
 /// Example:
 ///   `neuroom edit models/bedroom solved.json edit.json -o edited.json --width 512`
 #[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
 pub struct Args {
     /// A room's model folder (as written by `neuroom train`).
     models: PathBuf,

@@ -16,6 +16,7 @@ use neuroom_export::mesh::MeshDetail;
 ///   `neuroom export models/bedroom solved.json --gltf room.glb --report report.html \`
 ///   `    --truth rooms/bedroom/panoramas/bedroom_a0_l0.json`
 #[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
 pub struct Args {
     /// A room's model folder (as written by `neuroom train`).
     models: PathBuf,
@@ -37,7 +38,7 @@ pub struct Args {
     #[arg(long)]
     panorama: Option<PathBuf>,
     /// Mesh cell size of objects, millimetres.
-    #[arg(long, default_value_t = 15.0)]
+    #[arg(long, default_value_t = 20.0)]
     object_cell_mm: f32,
     /// Mesh cell size of the room, millimetres.
     #[arg(long, default_value_t = 40.0)]

@@ -19,6 +19,7 @@ use crate::progress::StageBars;
 ///   `neuroom relight models/bedroom solved.json --from solved --to studio --frames 24 -o relight.gif`
 ///   `neuroom relight models/bedroom arr.json --from 0 --to lobby --frames 12 -o day.gif --eye 1,1,1.6 --look-at 3,2,0.8`
 #[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
 pub struct Args {
     /// A room's model folder (as written by `neuroom train`).
     models: PathBuf,

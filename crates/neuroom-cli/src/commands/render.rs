@@ -22,6 +22,7 @@ use crate::progress::StageBars;
 ///   `neuroom render models/bedroom solved.json --path path.json -o path.gif`
 ///   (path.json: `[{"eye": [1, 1, 1.6], "look_at": [3, 2, 0.8]}, {"camera_to_world": [[…4 rows…]]}]`)
 #[derive(clap::Args)]
+#[command(verbatim_doc_comment)]
 pub struct Args {
     /// A room's model folder (as written by `neuroom train`: holds manifest.json).
     models: PathBuf,
@@ -54,7 +55,7 @@ pub struct Args {
     /// Tour along the camera poses of this JSON file; `-o` is then the GIF.
     #[arg(long, conflicts_with_all = ["orbit", "walk", "eye"])]
     path: Option<PathBuf>,
-    /// Tour: N frames circling the room's centre, looking at its middle.
+    /// Tour: N frames circling the room's centre, looking across it.
     #[arg(long, value_name = "N", conflicts_with_all = ["walk", "eye"])]
     orbit: Option<usize>,
     /// Tour: N frames walking a loop around the room, looking ahead.
