@@ -119,6 +119,31 @@ fn a_ball_is_learned_to_stated_psnr_depth_and_chamfer() {
 }
 
 #[test]
+fn two_runs_with_the_same_seed_and_two_threads_are_bit_identical() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = ball_data(&dir.path().join("capture"));
+    let mut config = quick_config(15);
+    config.object.batch_rays = 256;
+    let aug = Augmentation::default();
+    let run = || {
+        with_threads(2, || {
+            let mut t = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
+            t.run("ball", None, &Quiet).unwrap();
+            t.field.params.clone()
+        })
+    };
+    let (a, b) = (run(), run());
+    for g in neuroom_field::Group::ALL {
+        let same = a
+            .get(g)
+            .iter()
+            .zip(b.get(g))
+            .all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(same, "{} differs between two identical runs", g.name());
+    }
+}
+
+#[test]
 fn resuming_from_a_checkpoint_continues_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let data = ball_data(&dir.path().join("capture"));
