@@ -240,7 +240,8 @@ impl LitScene {
         Self { scene }
     }
 
-    /// Writes `light` into the layers' rows and tones; layers it leaves out keep theirs.
+    /// Writes `light` into the layers' rows and tones; layers it leaves out keep theirs, and an empty
+    /// code (a fit through fields without codes) changes the tone only.
     pub fn set(&mut self, light: &SceneLight) -> anyhow::Result<()> {
         let scene = &mut self.scene;
         if let Some(s) = &light.background {
@@ -281,8 +282,11 @@ fn with_light_rows(field: NeusField, copied: &[u32]) -> NeusField {
     grown
 }
 
-/// Writes `code` into light row `row` of `field`.
+/// Writes `code` into light row `row` of `field`; an empty code writes nothing.
 fn write_code(field: &mut NeusField, row: u32, code: &[f32]) -> anyhow::Result<()> {
+    if code.is_empty() {
+        return Ok(());
+    }
     let d = field.config().code_dim;
     ensure!(
         code.len() == d,
@@ -338,6 +342,23 @@ mod tests {
         );
         assert_eq!(lit.scene.objects[0].tone, red);
         assert_eq!(lit.scene.objects[1].tone, Tone::IDENTITY);
+        // A code of the wrong width is an error naming the object; an empty one changes the tone only.
+        let wrong = LightState {
+            code: vec![0.5; d + 1],
+            tone: red,
+        };
+        light.objects.insert(ids[1], wrong);
+        let e = format!("{:#}", lit.set(&light).unwrap_err());
+        assert!(e.contains(&format!("object {}", ids[1])), "{e}");
+        light.objects.insert(
+            ids[1],
+            LightState {
+                code: Vec::new(),
+                tone: red,
+            },
+        );
+        lit.set(&light).unwrap();
+        assert_eq!(lit.scene.objects[1].tone, red);
     }
 
     #[test]
