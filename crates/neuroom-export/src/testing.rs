@@ -79,6 +79,7 @@ pub fn tiny_models() -> RoomModels {
             centre: ROOM_CENTRE,
             radius: ROOM_RADIUS,
             inside_out: true,
+            box_half_extent: None,
         },
         1,
     );
@@ -86,6 +87,7 @@ pub fn tiny_models() -> RoomModels {
         centre: [0.0; 3],
         radius: 0.8 * half.iter().copied().fold(f32::INFINITY, f32::min),
         inside_out: false,
+        box_half_extent: None,
     };
     let ball = field(BALL_HALF.map(|h| -h), BALL_HALF, ball_init(BALL_HALF), 2);
     let stool = field(STOOL_HALF.map(|h| -h), STOOL_HALF, ball_init(STOOL_HALF), 3);

@@ -28,15 +28,21 @@ use serde::{Deserialize, Serialize};
 /// Points per chunk: small enough that a chunk's activations stay in L2 cache.
 pub const CHUNK: usize = 256;
 
-/// The analytic base SDF added to the network output (see the module documentation).
+/// The analytic base SDF added to the network output (see the module documentation): a sphere, or a box
+/// when `box_half_extent` is given.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GeometricInit {
-    /// Sphere centre (field coordinates, metres).
+    /// Sphere or box centre (field coordinates, metres).
     pub centre: [f32; 3],
     /// Sphere radius (metres).
     pub radius: f32,
     /// Flip the sign: positive inside (the room).
     pub inside_out: bool,
+    /// Half extent of a box base instead of the sphere. The room uses its box: a part of the room no
+    /// capture saw (often the ceiling above the panorama) then stays closed where the room box says,
+    /// instead of opening onto an inside-out sphere beyond the field's bounds.
+    #[serde(default)]
+    pub box_half_extent: Option<[f32; 3]>,
 }
 
 /// Everything that fixes a field's shape; stored as JSON beside the weights.
@@ -91,12 +97,13 @@ impl NeusConfig {
                 centre: [0.0; 3],
                 radius: r,
                 inside_out: false,
+                box_half_extent: None,
             },
         )
     }
 
     /// The default room (background) field: as [`NeusConfig::object`] but T = 2^19, finest 2048 over the
-    /// room box, and an inside-out sphere through the box corners' midpoint radius, positive inside.
+    /// room box padded by 5 %, and the room box itself as an inside-out base, positive inside.
     pub fn room(bounds_min: [f32; 3], bounds_max: [f32; 3]) -> Self {
         let centre = std::array::from_fn(|a| 0.5 * (bounds_min[a] + bounds_max[a]));
         let half: [f32; 3] = std::array::from_fn(|a| 0.5 * (bounds_max[a] - bounds_min[a]));
@@ -112,6 +119,7 @@ impl NeusConfig {
                 centre,
                 radius,
                 inside_out: true,
+                box_half_extent: Some(half),
             },
         )
     }
@@ -292,6 +300,22 @@ pub struct NeusField<T = f32> {
     inv_ext: [T; 3],
 }
 
+/// Signed distance from `d` (relative to the centre) to a box of half extent `half`, and its gradient.
+fn box_sdf<T: Real>(d: &[T; 3], half: &[T; 3]) -> (T, [T; 3]) {
+    let sign = |v: T| if v < T::ZERO { -T::ONE } else { T::ONE };
+    let abs = |v: T| if v < T::ZERO { -v } else { v };
+    let q: [T; 3] = std::array::from_fn(|a| abs(d[a]) - half[a]);
+    let out: [T; 3] = q.map(|v| v.max(T::ZERO));
+    let len = (out[0] * out[0] + out[1] * out[1] + out[2] * out[2]).sqrt();
+    if len > T::ZERO {
+        return (len, std::array::from_fn(|a| sign(d[a]) * out[a] / len));
+    }
+    let a = (0..3).fold(0, |m, a| if q[a] > q[m] { a } else { m });
+    let mut grad = [T::ZERO; 3];
+    grad[a] = sign(d[a]);
+    (q[a], grad)
+}
+
 impl<T: Real> NeusField<T> {
     /// A freshly initialised field: tables uniform in ±1e-4, networks He-uniform, the SDF output layer
     /// scaled by 0.01 (the field starts as its analytic base), codes uniform in ±0.01.
@@ -448,14 +472,17 @@ impl<T: Real> NeusField<T> {
     fn base(&self, x: &[T; 3]) -> (T, [T; 3]) {
         let init = &self.config.init;
         let d: [T; 3] = std::array::from_fn(|a| x[a] - T::from_f64(init.centre[a] as f64));
-        let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-            .sqrt()
-            .max(T::from_f64(1e-12));
+        let (sdf, grad) = match init.box_half_extent {
+            Some(half) => box_sdf(&d, &half.map(|h| T::from_f64(h as f64))),
+            None => {
+                let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+                    .sqrt()
+                    .max(T::from_f64(1e-12));
+                (r - T::from_f64(init.radius as f64), d.map(|v| v / r))
+            }
+        };
         let s = if init.inside_out { -T::ONE } else { T::ONE };
-        (
-            s * (r - T::from_f64(init.radius as f64)),
-            d.map(|v| s * v / r),
-        )
+        (s * sdf, grad.map(|g| s * g))
     }
 
     /// Forward pass of one chunk (at most [`CHUNK`] points). `dirs` (unit view directions) is read only for

@@ -433,6 +433,48 @@ fn analytic_normal_matches_finite_differences() {
 }
 
 #[test]
+fn box_base_normal_matches_finite_differences_inside_and_outside() {
+    let mut config = small_field(0).config().clone();
+    config.init.inside_out = true;
+    config.init.box_half_extent = Some([0.4, 0.3, 0.45]);
+    let field = NeusField::<f64>::new(config);
+    // Inside the box near each wall, and outside beyond a face and beyond an edge.
+    let points = [
+        [0.35, 0.02, 0.05],
+        [-0.03, -0.26, 0.1],
+        [0.05, 0.1, 0.41],
+        [0.46, 0.05, -0.02],
+        [0.44, 0.36, 0.0],
+    ];
+    let codes = CodeSet::default();
+    let mut tape = Tape::default();
+    field.forward(&points, &[], &codes, Outputs::SdfGradient, &mut tape);
+    let mut g = vec![[0.0; 3]; points.len()];
+    tape.copy_gradient(&mut g);
+    let sdf_at = |x: [f64; 3]| {
+        let mut t = Tape::default();
+        field.forward(&[x], &[], &codes, Outputs::Sdf, &mut t);
+        let mut s = [0.0];
+        t.copy_sdf(&mut s);
+        s[0]
+    };
+    for (p, gp) in g.iter().enumerate() {
+        for a in 0..3 {
+            let (mut xp, mut xm) = (points[p], points[p]);
+            xp[a] += EPS;
+            xm[a] -= EPS;
+            assert_close(
+                &format!("∇f[{p}][{a}]"),
+                gp[a],
+                (sdf_at(xp) - sdf_at(xm)) / (2.0 * EPS),
+            );
+        }
+    }
+    // Positive inside the room box, negative outside.
+    assert!(sdf_at(points[0]) > 0.0 && sdf_at(points[3]) < 0.0);
+}
+
+#[test]
 fn eikonal_loss_gradients() {
     let mut field = small_field(2);
     let points = field_points(&field, 4, 8);

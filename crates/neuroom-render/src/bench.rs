@@ -191,6 +191,7 @@ fn bench_scene(k: usize) -> Scene<NeusField> {
     let (lo, hi) = ROOM;
     let mut room = NeusConfig::room(lo.to_array(), hi.to_array());
     room.init.radius = 0.45 * (hi - lo).min_element();
+    room.init.box_half_extent = None;
     let mut models = vec![Model::neus(NeusField::new(room))];
     let mut objects = Vec::with_capacity(k);
     for i in 0..k {
