@@ -25,6 +25,7 @@ enum Command {
     Edit(commands::edit::Args),
     Export(commands::export::Args),
     Fit(commands::fit::Args),
+    Locate(commands::locate::Args),
     Bench(commands::bench::Args),
 }
 
@@ -40,6 +41,7 @@ fn main() {
         Command::Edit(args) => commands::edit::run(args),
         Command::Export(args) => commands::export::run(args),
         Command::Fit(args) => commands::fit::run(args),
+        Command::Locate(args) => commands::locate::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };
     if let Err(e) = result {

@@ -8,6 +8,7 @@ pub mod edit;
 pub mod export;
 pub mod fit;
 pub mod inspect;
+pub mod locate;
 pub mod relight;
 pub mod scene;
 pub mod synth;

@@ -34,6 +34,22 @@ enum Which {
     ///
     /// Example: `neuroom bench train rooms/bedroom chair --seconds 300 --json`
     Train(TrainArgs),
+    /// Locate every test panorama of a room (`panoramas/*.png` with ground truth beside them) and score
+    /// the camera, the identification and the initial poses against the ground truth.
+    ///
+    /// Example: `neuroom bench locate rooms/bedroom models/bedroom --json`
+    Locate(LocateArgs),
+}
+
+#[derive(clap::Args)]
+struct LocateArgs {
+    /// Room folder (its `panoramas/` hold the test panoramas and their ground truth).
+    room: PathBuf,
+    /// The room's model folder (as written by `neuroom train`).
+    models: PathBuf,
+    /// Print one JSON object per panorama and one for the mean, after the text.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(clap::Args)]
@@ -127,6 +143,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string(&report)?);
             }
         }
+        Which::Locate(a) => run_locate(&a)?,
         Which::Render(a) => {
             let report = bench::render(a.iterations)?;
             print!("{}", bench::describe_render(&report));
@@ -134,6 +151,47 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string(&report)?);
             }
         }
+    }
+    Ok(())
+}
+
+/// `neuroom bench locate`: camera, identification and initial-pose scores per panorama and their mean.
+fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
+    let config = neuroom::locate::LocateConfig::default();
+    let (_, mean) = neuroom::locate::bench_locate(&a.room, &a.models, &config, &mut |s| {
+        println!(
+            "{}: camera {:.2} cm {:.3}°, P {:.2} R {:.2}, IoU {:.1} %, ARE {:.1}°, APE {:.1} cm, {:.1} s",
+            s.panorama,
+            s.camera_position_error_cm,
+            s.camera_rotation_error_deg,
+            s.objects.precision,
+            s.objects.recall,
+            s.objects.mean_iou_percent.unwrap_or(0.0),
+            s.objects.mean_rotation_error_deg.unwrap_or(f64::NAN),
+            s.objects.mean_position_error_cm.unwrap_or(f64::NAN),
+            s.seconds
+        );
+        if a.json {
+            println!("{}", serde_json::to_string(s).unwrap_or_default());
+        }
+    })?;
+    println!(
+        "mean of {}: camera {:.2} cm (max {:.2}) {:.3}° (max {:.3}), P {:.2} R {:.2}, IoU {:.1} %, \
+         ARE {:.1}°, APE {:.1} cm, {:.1} s per panorama",
+        mean.panoramas,
+        mean.camera_position_error_cm,
+        mean.camera_position_error_max_cm,
+        mean.camera_rotation_error_deg,
+        mean.camera_rotation_error_max_deg,
+        mean.precision,
+        mean.recall,
+        mean.iou_percent,
+        mean.are_deg,
+        mean.ape_cm,
+        mean.seconds
+    );
+    if a.json {
+        println!("{}", serde_json::to_string(&mean)?);
     }
     Ok(())
 }

@@ -6,6 +6,7 @@ pub mod edit;
 pub mod export;
 pub mod fit;
 pub mod info;
+pub mod locate;
 pub mod relight;
 pub mod render;
 pub mod synth;

@@ -1,0 +1,73 @@
+//! `neuroom locate ROOM MODELS PANORAMA -o ARRANGEMENT.json`: camera, objects and poses from a bare
+//! panorama.
+
+use std::path::PathBuf;
+
+use neuroom::locate::LocateConfig;
+use neuroom_fit::FitConfig;
+
+use crate::progress::StageBars;
+
+/// Find the camera of a panorama in a trained room, find and identify the objects it shows with their
+/// initial poses, then solve poses, tone and light codes by the holistic fit. Writes the arrangement
+/// (FORMAT.md, with the camera), the initial one beside it (`<OUT stem>.init.json`) and the fit's report
+/// and renders. The first run on a model folder builds its localization database (`locate.safetensors`).
+///
+/// Example: `neuroom locate rooms/bedroom models/bedroom rooms/bedroom/panoramas/bedroom_a0_l0.png
+/// -o arrangement.json`
+#[derive(clap::Args)]
+pub struct Args {
+    /// The room folder (room.json: object names, sizes and relation hints).
+    room: PathBuf,
+    /// The room's model folder (as written by `neuroom train`).
+    models: PathBuf,
+    /// The equirectangular panorama (width = 2 × height).
+    panorama: PathBuf,
+    /// Output arrangement JSON.
+    #[arg(short, long)]
+    out: PathBuf,
+    /// Stop after the initial poses (no holistic fit).
+    #[arg(long)]
+    no_fit: bool,
+    /// Pose iterations of the fit (stage 1).
+    #[arg(long)]
+    pose_iterations: Option<usize>,
+    /// Light code and tone iterations of the fit (stage 2).
+    #[arg(long)]
+    appearance_iterations: Option<usize>,
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut fit = FitConfig::default();
+    fit.pose_iterations = args.pose_iterations.unwrap_or(fit.pose_iterations);
+    fit.appearance_iterations = args
+        .appearance_iterations
+        .unwrap_or(fit.appearance_iterations);
+    let total = (fit.pose_iterations + fit.appearance_iterations) as u64;
+    let mut bars = StageBars::new();
+    let outputs = neuroom::locate::locate(
+        &args.room,
+        &args.models,
+        &args.panorama,
+        &args.out,
+        &LocateConfig::default(),
+        (!args.no_fit).then_some(&fit),
+        &mut |log| bars.update("fit", log.iteration as u64 + 1, total),
+    )?;
+    let located = &outputs.located;
+    println!(
+        "camera found in {:.1} s (alignment score {:.3}); {} detections, {} objects placed in {:.1} s",
+        located.seconds[0],
+        located.camera.score,
+        located.detections,
+        located.found.len(),
+        located.seconds[1]
+    );
+    println!(
+        "initial arrangement: {}\narrangement: {}",
+        outputs.init.display(),
+        outputs.arrangement.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,197 @@
+//! Coloured surface point clouds of object models, and their projection into a panorama: a cheap
+//! render-and-compare for pose hypotheses (thousands per second where a neural render takes seconds).
+//!
+//! Points come from a grid over the object's box, kept near the zero level of its SDF and snapped onto
+//! it along the gradient; colours are the field's colour seen along the inward normal.
+
+use glam::{Mat3, Vec3};
+use neuroom_core::pose::Pose;
+use neuroom_field::{CodeSet, Field, FieldOutput, Query};
+
+use crate::sphere::project;
+
+/// Surface points of one model in its frame, with colours (sRGB).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Cloud {
+    /// Points (object frame, metres).
+    pub points: Vec<Vec3>,
+    /// Colours, sRGB in [0, 1].
+    pub colors: Vec<Vec3>,
+    /// Grid spacing the points were taken at (metres).
+    pub spacing: f32,
+}
+
+/// The surface of `field` inside the box of half extents `half`, sampled at `spacing`, coloured with
+/// code rows `codes`.
+pub fn surface_cloud<F: Field>(field: &F, half: Vec3, spacing: f32, codes: CodeSet) -> Cloud {
+    let n = (2.0 * half / spacing).ceil().max(Vec3::ONE);
+    let (nx, ny, nz) = (n.x as usize, n.y as usize, n.z as usize);
+    let grid: Vec<Vec3> = (0..nx * ny * nz)
+        .map(|i| {
+            let (x, y, z) = (i % nx, (i / nx) % ny, i / (nx * ny));
+            -half + spacing * (Vec3::new(x as f32, y as f32, z as f32) + 0.5)
+        })
+        .collect();
+    let mut sdf = vec![0.0; grid.len()];
+    let mut grad = vec![Vec3::ZERO; grid.len()];
+    field.sdf_gradient(&grid, &mut sdf, &mut grad);
+    let (points, normals): (Vec<Vec3>, Vec<Vec3>) = grid
+        .iter()
+        .zip(&sdf)
+        .zip(&grad)
+        .filter(|((_, s), g)| s.abs() < 0.75 * spacing && g.length_squared() > 1e-8)
+        .map(|((p, s), g)| {
+            let n = g.normalize();
+            ((*p - *s * n).clamp(-half, half), n)
+        })
+        .unzip();
+    let dirs: Vec<Vec3> = normals.iter().map(|n| -*n).collect();
+    let mut out = FieldOutput::default();
+    let mut tape = F::Tape::default();
+    field.forward(
+        &Query {
+            points: &points,
+            dirs: &dirs,
+            codes,
+        },
+        &mut tape,
+        &mut out,
+    );
+    Cloud {
+        colors: out
+            .rgb
+            .iter()
+            .map(|c| c.clamp(Vec3::ZERO, Vec3::ONE))
+            .collect(),
+        points,
+        spacing,
+    }
+}
+
+/// What a posed cloud looks like from the camera: visible pixels and their colours.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Silhouette {
+    /// Linear pixel indices, each once.
+    pub pixels: Vec<u32>,
+    /// Colour of the nearest point per pixel.
+    pub colors: Vec<Vec3>,
+}
+
+/// Reusable z-buffer for [`splat`].
+#[derive(Clone, Debug, Default)]
+pub struct ZBuffer {
+    depth: Vec<f32>,
+    color: Vec<Vec3>,
+    touched: Vec<u32>,
+}
+
+/// Projects `cloud` placed at `object_to_world` into a `width × height` panorama at `camera_to_world`.
+/// Points farther than the empty room's depth (plus `tolerance`) are hidden by it; each point covers a
+/// square of pixels as wide as its spacing appears.
+#[allow(clippy::too_many_arguments)]
+pub fn splat(
+    cloud: &Cloud,
+    object_to_world: &Pose,
+    camera_to_world: &Pose,
+    width: usize,
+    height: usize,
+    room_depth: &[f32],
+    tolerance: f32,
+    buffer: &mut ZBuffer,
+) -> Silhouette {
+    if buffer.depth.len() != width * height {
+        buffer.depth = vec![f32::INFINITY; width * height];
+        buffer.color = vec![Vec3::ZERO; width * height];
+    }
+    let rc = camera_to_world.rotation_f32().transpose();
+    let m: Mat3 = rc * object_to_world.rotation_f32();
+    let b: Vec3 = rc * (object_to_world.translation - camera_to_world.translation).as_vec3();
+    let pixel_angle = std::f32::consts::TAU / width as f32;
+    for (x, c) in cloud.points.iter().zip(&cloud.colors) {
+        let p = m * *x + b;
+        let dist = p.length();
+        let Some(pix) = project(p.as_dvec3(), width, height) else {
+            continue;
+        };
+        let r = ((0.5 * cloud.spacing / dist.max(1e-3)) / pixel_angle)
+            .floor()
+            .min(3.0) as isize;
+        let (u0, v0) = (pix.x.floor() as isize, pix.y.floor() as isize);
+        for dv in -r..=r {
+            let v = v0 + dv;
+            if v < 0 || v >= height as isize {
+                continue;
+            }
+            for du in -r..=r {
+                let u = (u0 + du).rem_euclid(width as isize) as usize;
+                let i = v as usize * width + u;
+                let wall = room_depth[i];
+                if wall > 0.0 && dist > wall + tolerance {
+                    continue;
+                }
+                if dist < buffer.depth[i] {
+                    if buffer.depth[i].is_infinite() {
+                        buffer.touched.push(i as u32);
+                    }
+                    buffer.depth[i] = dist;
+                    buffer.color[i] = *c;
+                }
+            }
+        }
+    }
+    let mut out = Silhouette::default();
+    for &i in &buffer.touched {
+        out.pixels.push(i);
+        out.colors.push(buffer.color[i as usize]);
+        buffer.depth[i as usize] = f32::INFINITY;
+    }
+    buffer.touched.clear();
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+    use neuroom_field::{AnalyticColor, AnalyticField};
+
+    fn cube() -> AnalyticField {
+        AnalyticField::Cuboid {
+            centre: Vec3::ZERO,
+            half: Vec3::splat(0.25),
+            color: AnalyticColor::Constant(Vec3::new(0.8, 0.2, 0.1)),
+        }
+    }
+
+    #[test]
+    fn the_cloud_lies_on_the_surface_with_the_field_colour() {
+        let cloud = surface_cloud(&cube(), Vec3::splat(0.3), 0.05, CodeSet::default());
+        assert!(cloud.points.len() > 100);
+        for (p, c) in cloud.points.iter().zip(&cloud.colors) {
+            assert!((p.abs().max_element() - 0.25).abs() < 0.02, "{p}");
+            assert!((c.x - 0.8).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn a_cube_ahead_covers_the_centre_and_a_wall_in_front_hides_it() {
+        let cloud = surface_cloud(&cube(), Vec3::splat(0.3), 0.03, CodeSet::default());
+        let (w, h) = (64, 32);
+        let object = Pose::from_yaw_translation(0.0, DVec3::new(2.0, 0.0, 0.0));
+        let camera = Pose::IDENTITY;
+        let mut buffer = ZBuffer::default();
+        let far = vec![10.0; w * h];
+        let seen = splat(&cloud, &object, &camera, w, h, &far, 0.1, &mut buffer);
+        let centre = (h / 2) * w + w / 2;
+        assert!(seen.pixels.contains(&(centre as u32)));
+        // The cube spans about 14° of 360°: a few pixels of 64 across.
+        assert!(
+            seen.pixels.len() >= 4 && seen.pixels.len() < 40,
+            "{}",
+            seen.pixels.len()
+        );
+        let near = vec![1.0; w * h];
+        let hidden = splat(&cloud, &object, &camera, w, h, &near, 0.1, &mut buffer);
+        assert!(hidden.pixels.is_empty());
+    }
+}

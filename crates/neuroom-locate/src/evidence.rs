@@ -1,0 +1,229 @@
+//! Where the panorama shows something the empty room does not: the per-pixel difference between the
+//! input and the empty room rendered at the found camera, after a robust per-channel gain (changed light
+//! colour and exposure), thresholded against its own spread, cleaned by opening, split into connected
+//! regions. A [`Detector`] turns a view into detections; [`ResidualDetector`] is this classical one, and
+//! a learned detector plugs in through the same trait (it may also name the model of each detection).
+
+use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
+use serde::{Deserialize, Serialize};
+
+/// The input panorama and the empty room, both at the working resolution, at the found camera.
+#[derive(Clone, Debug)]
+pub struct View {
+    /// Input panorama, downsampled.
+    pub query: RgbImage,
+    /// Empty room rendered at the camera.
+    pub empty: RgbImage,
+    /// Ray distance of the empty room per pixel (0 = none).
+    pub empty_depth: Vec<f32>,
+}
+
+impl View {
+    /// Columns.
+    pub fn width(&self) -> usize {
+        self.query.width as usize
+    }
+
+    /// Rows.
+    pub fn height(&self) -> usize {
+        self.query.height as usize
+    }
+}
+
+/// A region of the panorama where an object is seen.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Detection {
+    /// Linear pixel indices at the working resolution.
+    pub pixels: Vec<u32>,
+    /// The model the detector recognises there, when it knows (index into the model list searched).
+    pub model: Option<usize>,
+}
+
+/// Finds object regions in a view.
+pub trait Detector {
+    /// Detections, in any order; they may overlap.
+    fn detect(&self, view: &View) -> Vec<Detection>;
+}
+
+/// Thresholds of [`ResidualDetector`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResidualDetector {
+    /// A pixel is object evidence when its residual exceeds this many times the median residual…
+    pub factor: f32,
+    /// …and this absolute floor (mean absolute sRGB difference).
+    pub floor: f32,
+    /// Smallest region kept (pixels).
+    pub min_pixels: usize,
+}
+
+impl Default for ResidualDetector {
+    fn default() -> Self {
+        Self {
+            factor: 3.0,
+            floor: 0.06,
+            min_pixels: 12,
+        }
+    }
+}
+
+impl Detector for ResidualDetector {
+    fn detect(&self, view: &View) -> Vec<Detection> {
+        let residual = residual(view);
+        let mut sorted = residual.clone();
+        let mid = sorted.len() / 2;
+        let median = *sorted.select_nth_unstable_by(mid, f32::total_cmp).1;
+        let threshold = (self.factor * median).max(self.floor);
+        let raw: Vec<bool> = residual.iter().map(|r| *r > threshold).collect();
+        let (w, h) = (view.width(), view.height());
+        let cleaned = dilate(&erode(&raw, w, h), w, h);
+        components(&cleaned, w, h)
+            .into_iter()
+            .filter(|c| c.len() >= self.min_pixels)
+            .map(|pixels| Detection {
+                pixels,
+                model: None,
+            })
+            .collect()
+    }
+}
+
+/// Per-channel gain from the empty room to the query: the median ratio of linear values over pixels
+/// with a depth (a changed light colour or exposure).
+pub fn room_gains(view: &View) -> [f32; 3] {
+    std::array::from_fn(|c| {
+        let mut ratios: Vec<f32> = view
+            .query
+            .data
+            .iter()
+            .zip(&view.empty.data)
+            .zip(&view.empty_depth)
+            .filter(|(_, d)| **d > 0.0)
+            .map(|((q, e), _)| (srgb_to_linear(q[c]) + 1e-3) / (srgb_to_linear(e[c]) + 1e-3))
+            .collect();
+        if ratios.is_empty() {
+            return 1.0;
+        }
+        let mid = ratios.len() / 2;
+        *ratios.select_nth_unstable_by(mid, f32::total_cmp).1
+    })
+}
+
+/// The empty room's colour as the query's light would show it: `gains` applied in linear light.
+pub fn relit(color: [f32; 3], gains: [f32; 3]) -> [f32; 3] {
+    std::array::from_fn(|c| linear_to_srgb((srgb_to_linear(color[c]) * gains[c]).min(1.0)))
+}
+
+/// Mean absolute sRGB difference per pixel between the query and the relit empty room; 0 where the
+/// empty room has no surface (nothing is known there).
+pub fn residual(view: &View) -> Vec<f32> {
+    let gains = room_gains(view);
+    view.query
+        .data
+        .iter()
+        .zip(&view.empty.data)
+        .zip(&view.empty_depth)
+        .map(|((q, e), d)| {
+            if *d <= 0.0 {
+                return 0.0;
+            }
+            let r = relit(*e, gains);
+            (0..3).map(|c| (q[c] - r[c]).abs()).sum::<f32>() / 3.0
+        })
+        .collect()
+}
+
+/// Neighbours of pixel `i` (4-connected, wrapping columns).
+fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
+    let (u, v) = (i % w, i / w);
+    let left = v * w + (u + w - 1) % w;
+    let right = v * w + (u + 1) % w;
+    let up = (v > 0).then(|| i - w);
+    let down = (v + 1 < h).then(|| i + w);
+    [Some(left), Some(right), up, down].into_iter().flatten()
+}
+
+/// A pixel stays set when it and its 4 neighbours are set.
+pub fn erode(mask: &[bool], w: usize, h: usize) -> Vec<bool> {
+    (0..w * h)
+        .map(|i| mask[i] && neighbours(i, w, h).all(|j| mask[j]))
+        .collect()
+}
+
+/// A pixel is set when it or one of its 4 neighbours is set.
+pub fn dilate(mask: &[bool], w: usize, h: usize) -> Vec<bool> {
+    (0..w * h)
+        .map(|i| mask[i] || neighbours(i, w, h).any(|j| mask[j]))
+        .collect()
+}
+
+/// 4-connected components of the set pixels (columns wrap around), as pixel lists.
+pub fn components(mask: &[bool], w: usize, h: usize) -> Vec<Vec<u32>> {
+    let mut seen = vec![false; w * h];
+    let mut out = Vec::new();
+    for start in 0..w * h {
+        if !mask[start] || seen[start] {
+            continue;
+        }
+        let mut stack = vec![start];
+        seen[start] = true;
+        let mut pixels = Vec::new();
+        while let Some(i) = stack.pop() {
+            pixels.push(i as u32);
+            for j in neighbours(i, w, h) {
+                if mask[j] && !seen[j] {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            }
+        }
+        out.push(pixels);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn components_wrap_around_the_seam() {
+        let (w, h) = (8, 3);
+        let mut mask = vec![false; w * h];
+        for i in [8, 15, 4 + 16] {
+            mask[i] = true;
+        }
+        let mut c = components(&mask, w, h);
+        c.sort_by_key(|p| p.len());
+        assert_eq!(c.len(), 2);
+        assert_eq!(
+            c[1].len(),
+            2,
+            "columns 0 and 7 of row 1 touch across the seam"
+        );
+    }
+
+    #[test]
+    fn a_dark_object_on_a_grey_wall_is_detected_under_a_changed_exposure() {
+        let (w, h) = (32usize, 16usize);
+        let empty = RgbImage {
+            width: w as u32,
+            height: h as u32,
+            data: vec![[0.6, 0.6, 0.6]; w * h],
+        };
+        let mut query = empty.map(|c| c.map(|x| x * 0.8));
+        for v in 6..11 {
+            for u in 10..16 {
+                query.data[v * w + u] = [0.1, 0.2, 0.05];
+            }
+        }
+        let view = View {
+            query,
+            empty,
+            empty_depth: vec![2.0; w * h],
+        };
+        let found = ResidualDetector::default().detect(&view);
+        assert_eq!(found.len(), 1);
+        // Opening removes the one-pixel rim of the 6 × 5 block, dilation restores most of it.
+        assert!(found[0].pixels.len() >= 20 && found[0].pixels.len() <= 30);
+    }
+}

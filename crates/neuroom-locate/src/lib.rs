@@ -1,0 +1,27 @@
+//! The online front end of "Neural Rendering in a Room": from a bare panorama and a trained room, the
+//! panorama's camera and the objects' initial poses.
+//!
+//! - Camera localization ([`localize()`]): a [`database`] of small colour + depth panoramas rendered from
+//!   the background model over the floor; headings by circular correlation of illumination-robust
+//!   [`features`] ([`yaw`]); direct 6-DoF alignment ([`align`]) against database panoramas, then against
+//!   keyframes rendered at the current estimate.
+//! - Objects: [`evidence`] (where the panorama differs from the empty room rendered at the camera; the
+//!   [`evidence::Detector`] trait lets a learned detector replace it), [`cloud`] (coloured surface points
+//!   of each model, projected as a cheap render), [`objects`] (pose hypotheses on the floor, on walls and
+//!   on other objects, scored by render-and-compare, taken greedily).
+//! - Geometry helpers: [`plane`] (single-channel panorama images), [`sphere`] (the equirectangular
+//!   projection with its Jacobian).
+
+pub mod align;
+pub mod cloud;
+pub mod database;
+pub mod evidence;
+pub mod features;
+pub mod localize;
+pub mod objects;
+pub mod plane;
+pub mod sphere;
+pub mod yaw;
+
+pub use database::{DATABASE_FILE, Database, DatabaseConfig, build_database};
+pub use localize::{CameraEstimate, LocalizeConfig, localize, render_background};

@@ -1,0 +1,203 @@
+//! Camera localization: database search, then direct alignment through the renderer.
+//!
+//! 1. The query is reduced to the database size; its features are correlated with every database
+//!    panorama over all headings ([`crate::yaw`]); the best (position, heading) pairs are candidates.
+//! 2. Each candidate is aligned in 6-DoF to its own database panorama (a free keyframe: colour + depth
+//!    are stored), which pulls it from the grid point to near the true camera; the best correlation wins.
+//! 3. The winners are refined against keyframes rendered from the background model at their current
+//!    pose, at a finer resolution, a few rounds (each render removes the parallax error of the last).
+
+use std::time::Instant;
+
+use neuroom_core::camera::Equirect;
+use neuroom_core::image::RgbImage;
+use neuroom_core::pose::Pose;
+use neuroom_field::Field;
+use neuroom_render::{RenderConfig, Sampling, Scene, render_image};
+use serde::{Deserialize, Serialize};
+
+use crate::align::{AlignConfig, Alignment, Keyframe, align};
+use crate::database::Database;
+use crate::features::FeatureMap;
+use crate::plane::downsample_rgb;
+use crate::yaw::best_yaws;
+
+/// Settings of [`localize`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LocalizeConfig {
+    /// Blur of the heading search's features (database pixels).
+    pub yaw_sigma: f32,
+    /// Headings kept per database panorama.
+    pub yaws_per_entry: usize,
+    /// Candidates aligned against their database panorama.
+    pub candidates: usize,
+    /// Candidates refined against rendered keyframes.
+    pub finalists: usize,
+    /// Alignment against database panoramas.
+    pub coarse: AlignConfig,
+    /// Widths of the rendered keyframes, one refinement round each; every finalist gets the first
+    /// round, the best of them the others.
+    pub fine_widths: Vec<usize>,
+    /// Alignment against rendered keyframes.
+    pub fine: AlignConfig,
+    /// Rendering of the keyframes.
+    pub render: RenderConfig,
+}
+
+impl Default for LocalizeConfig {
+    fn default() -> Self {
+        Self {
+            yaw_sigma: 1.0,
+            yaws_per_entry: 2,
+            candidates: 8,
+            finalists: 2,
+            coarse: AlignConfig {
+                sigmas: vec![4.0, 2.0, 1.0],
+                ..AlignConfig::default()
+            },
+            fine_widths: vec![256, 512],
+            fine: AlignConfig {
+                sigmas: vec![2.0, 1.0],
+                ..AlignConfig::default()
+            },
+            render: RenderConfig {
+                sampling: Sampling::SafeRegion {
+                    coarse: 4,
+                    fine: 8,
+                    before: 0.05,
+                    after: 0.1,
+                },
+                ..RenderConfig::default()
+            },
+        }
+    }
+}
+
+/// The found camera and how it was found.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraEstimate {
+    /// The panorama's camera.
+    pub camera_to_world: [[f64; 4]; 4],
+    /// Feature correlation at the solution (1 = perfect).
+    pub score: f64,
+    /// Best heading-search correlation.
+    pub search_score: f64,
+    /// Seconds: heading search, coarse alignment, rendered refinement.
+    pub seconds: [f64; 3],
+}
+
+impl CameraEstimate {
+    /// The camera as a pose.
+    pub fn pose(&self) -> Pose {
+        Pose::from_rows_unchecked(&self.camera_to_world)
+    }
+}
+
+/// Finds the camera of `panorama` in the room whose empty-room scene (no objects) is `scene`, using `db`.
+pub fn localize<F: Field>(
+    scene: &Scene<F>,
+    db: &Database,
+    panorama: &RgbImage,
+    config: &LocalizeConfig,
+) -> Result<CameraEstimate, String> {
+    if db.entries.is_empty() {
+        return Err("the localization database has no panoramas".into());
+    }
+    let t0 = Instant::now();
+    let small = downsample_rgb(panorama, db.width, db.height);
+    let query = FeatureMap::new(&small, config.yaw_sigma).normalized();
+    let refs: Vec<FeatureMap> = db
+        .entries
+        .iter()
+        .map(|e| FeatureMap::new(&e.rgb, config.yaw_sigma).normalized())
+        .collect();
+    let matches = best_yaws(
+        &query,
+        &refs,
+        config.yaws_per_entry,
+        config.candidates.max(1),
+    );
+    let search_score = matches.first().map_or(0.0, |m| m.score);
+    let t1 = Instant::now();
+    let mut coarse: Vec<Alignment> = matches
+        .iter()
+        .map(|m| {
+            let entry = &db.entries[m.entry];
+            let keyframe = Keyframe {
+                rgb: &entry.rgb,
+                depth: &entry.depth,
+                camera_to_world: entry.camera_to_world(),
+            };
+            let init = Pose::from_yaw_translation(m.yaw, entry.position.as_dvec3());
+            align(&keyframe, &small, &init, &config.coarse)
+        })
+        .collect();
+    coarse.sort_by(|a, b| b.score.total_cmp(&a.score));
+    coarse.truncate(config.finalists.max(1));
+    let t2 = Instant::now();
+    let (first, rest) = config.fine_widths.split_first().unzip();
+    let mut best = coarse
+        .iter()
+        .map(|c| {
+            refine(
+                scene,
+                panorama,
+                c,
+                first.map(std::slice::from_ref).unwrap_or(&[]),
+                config,
+            )
+        })
+        .max_by(|a, b| a.score.total_cmp(&b.score))
+        .expect("at least one candidate");
+    best = refine(scene, panorama, &best, rest.unwrap_or(&[]), config);
+    let t3 = Instant::now();
+    Ok(CameraEstimate {
+        camera_to_world: best.camera_to_world.to_rows(),
+        score: best.score,
+        search_score,
+        seconds: [
+            (t1 - t0).as_secs_f64(),
+            (t2 - t1).as_secs_f64(),
+            (t3 - t2).as_secs_f64(),
+        ],
+    })
+}
+
+/// Rounds of render-and-align, one per keyframe width.
+fn refine<F: Field>(
+    scene: &Scene<F>,
+    panorama: &RgbImage,
+    start: &Alignment,
+    widths: &[usize],
+    config: &LocalizeConfig,
+) -> Alignment {
+    let mut current = *start;
+    for &width in widths {
+        let (rgb, depth) =
+            render_background(scene, &current.camera_to_world, width, &config.render);
+        let keyframe = Keyframe {
+            rgb: &rgb,
+            depth: &depth,
+            camera_to_world: current.camera_to_world,
+        };
+        let query = downsample_rgb(panorama, width, width / 2);
+        current = align(&keyframe, &query, &current.camera_to_world, &config.fine);
+    }
+    current
+}
+
+/// Colour and ray depth of `scene` (the empty room: a scene without objects) seen from `camera_to_world`
+/// by a `width × width/2` panorama.
+pub fn render_background<F: Field>(
+    scene: &Scene<F>,
+    camera_to_world: &Pose,
+    width: usize,
+    config: &RenderConfig,
+) -> (RgbImage, Vec<f32>) {
+    let camera = Equirect {
+        width: width as u32,
+        height: (width / 2) as u32,
+    };
+    let (rgb, depth, _) = render_image(scene, &camera, camera_to_world, config);
+    (rgb, depth.data)
+}

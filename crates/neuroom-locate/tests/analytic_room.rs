@@ -1,0 +1,218 @@
+//! Camera localization and object finding in an analytic room: a box-shaped room with coloured furniture
+//! fixed to it (the "background"), and movable boxes.
+
+use glam::{DMat3, DVec3, Vec3};
+use neuroom_core::camera::Equirect;
+use neuroom_core::image::RgbImage;
+use neuroom_core::pose::Pose;
+use neuroom_field::{AnalyticColor, AnalyticField, CodeSet};
+use neuroom_locate::cloud::surface_cloud;
+use neuroom_locate::evidence::{Detector, ResidualDetector, View};
+use neuroom_locate::objects::{ObjectModel, Placement, SearchConfig, find_objects};
+use neuroom_locate::{
+    Database, DatabaseConfig, LocalizeConfig, build_database, localize, render_background,
+};
+use neuroom_render::{Background, InstanceCodes, Model, RenderConfig, Scene, SceneObject, Tone};
+
+const ROOM_CENTRE: Vec3 = Vec3::new(2.0, 1.5, 1.3);
+const ROOM_HALF: Vec3 = Vec3::new(2.0, 1.5, 1.3);
+
+fn fixture(centre: Vec3, half: Vec3, rgb: Vec3) -> AnalyticField {
+    AnalyticField::Cuboid {
+        centre,
+        half,
+        color: AnalyticColor::Constant(rgb),
+    }
+}
+
+/// The empty room: a shell coloured by position with fixed, coloured blocks on its walls.
+fn room_field() -> AnalyticField {
+    AnalyticField::Union(vec![
+        AnalyticField::RoomShell {
+            centre: ROOM_CENTRE,
+            half: ROOM_HALF,
+            color: AnalyticColor::Position {
+                origin: ROOM_CENTRE,
+                scale: 3.0,
+            },
+        },
+        fixture(
+            Vec3::new(0.1, 0.8, 1.5),
+            Vec3::new(0.1, 0.3, 0.4),
+            Vec3::new(0.9, 0.2, 0.2),
+        ),
+        fixture(
+            Vec3::new(2.6, 2.95, 1.0),
+            Vec3::new(0.5, 0.05, 0.7),
+            Vec3::new(0.1, 0.3, 0.8),
+        ),
+        fixture(
+            Vec3::new(3.9, 1.0, 0.3),
+            Vec3::new(0.1, 0.6, 0.3),
+            Vec3::new(0.2, 0.7, 0.2),
+        ),
+        fixture(
+            Vec3::new(1.2, 0.05, 2.0),
+            Vec3::new(0.4, 0.05, 0.2),
+            Vec3::new(0.9, 0.9, 0.1),
+        ),
+    ])
+}
+
+fn movable(half: Vec3, rgb: Vec3) -> AnalyticField {
+    fixture(Vec3::ZERO, half, rgb)
+}
+
+const BOX_A: Vec3 = Vec3::new(0.3, 0.2, 0.25);
+const BOX_B: Vec3 = Vec3::new(0.15, 0.15, 0.4);
+const RED: Vec3 = Vec3::new(0.8, 0.15, 0.1);
+const BLUE: Vec3 = Vec3::new(0.1, 0.2, 0.9);
+
+/// The room with the movable models listed (none placed unless `placed` is given).
+fn scene(placed: Option<(usize, Pose)>) -> Scene<AnalyticField> {
+    let models = vec![
+        Model {
+            field: room_field(),
+            inv_s: 400.0,
+        },
+        Model {
+            field: movable(BOX_A, RED),
+            inv_s: 400.0,
+        },
+        Model {
+            field: movable(BOX_B, BLUE),
+            inv_s: 400.0,
+        },
+    ];
+    let halves = [BOX_A, BOX_B];
+    Scene {
+        models,
+        background: Background {
+            model: 0,
+            bounds_min: ROOM_CENTRE - ROOM_HALF - Vec3::splat(0.05),
+            bounds_max: ROOM_CENTRE + ROOM_HALF + Vec3::splat(0.05),
+            codes: InstanceCodes::default(),
+            tone: Tone::IDENTITY,
+        },
+        objects: placed
+            .map(|(m, pose)| vec![SceneObject::new(m + 1, m as u16 + 1, &pose, halves[m])])
+            .unwrap_or_default(),
+    }
+}
+
+fn panorama(scene: &Scene<AnalyticField>, camera: &Pose, width: u32, gain: f32) -> RgbImage {
+    let cam = Equirect::new(width, width / 2).unwrap();
+    let (rgb, _, _) = neuroom_render::render_image(scene, &cam, camera, &RenderConfig::default());
+    rgb.map(|c| c.map(|x| (x * gain).min(1.0)))
+}
+
+fn small_database(empty: &Scene<AnalyticField>) -> Database {
+    let config = DatabaseConfig {
+        width: 64,
+        spacing: 0.6,
+        heights: vec![1.4],
+        ..DatabaseConfig::default()
+    };
+    build_database(empty, &config, &mut |_, _| {})
+}
+
+#[test]
+fn the_camera_is_found_despite_an_object_and_a_darker_exposure() {
+    let empty = scene(None);
+    let db = small_database(&empty);
+    assert!(db.entries.len() >= 6, "{} entries", db.entries.len());
+    let truth = Pose::from_yaw_translation(2.1, DVec3::new(1.35, 1.1, 1.5));
+    let object = Pose::from_yaw_translation(0.4, DVec3::new(2.6, 1.9, 0.25));
+    let query = panorama(&scene(Some((0, object))), &truth, 256, 0.8);
+    let config = LocalizeConfig {
+        candidates: 6,
+        fine_widths: vec![128, 256],
+        ..LocalizeConfig::default()
+    };
+    let found = localize(&empty, &db, &query, &config).unwrap().pose();
+    let position = found.translation.distance(truth.translation);
+    let rotation = neuroom_core::metrics::rotation_error_deg(truth.rotation, found.rotation);
+    assert!(position < 0.03, "position error {position} m");
+    assert!(rotation < 0.5, "rotation error {rotation}°");
+}
+
+#[test]
+fn the_database_round_trips_and_bad_files_are_named() {
+    let empty = scene(None);
+    let config = DatabaseConfig {
+        width: 32,
+        spacing: 1.2,
+        heights: vec![1.4],
+        ..DatabaseConfig::default()
+    };
+    let db = build_database(&empty, &config, &mut |_, _| {});
+    assert!(!db.entries.is_empty());
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("locate.safetensors");
+    db.write(&path).unwrap();
+    let back = Database::read(&path).unwrap();
+    assert_eq!(back.entries.len(), db.entries.len());
+    assert_eq!((back.width, back.height), (32, 16));
+    for (a, b) in back.entries.iter().zip(&db.entries) {
+        assert_eq!(a.position, b.position);
+        assert!((a.depth[100] - b.depth[100]).abs() < 1e-3);
+        assert!((a.rgb.data[100][0] - b.rgb.data[100][0]).abs() < 0.5 / 255.0 + 1e-6);
+    }
+    std::fs::write(&path, b"not tensors").unwrap();
+    let err = Database::read(&path).unwrap_err().to_string();
+    assert!(err.contains("locate.safetensors"), "{err}");
+}
+
+fn object_models() -> Vec<ObjectModel> {
+    [(BOX_A, RED, 1u16), (BOX_B, BLUE, 2u16)]
+        .into_iter()
+        .map(|(half, rgb, id)| {
+            let field = movable(half, rgb);
+            let half = half + Vec3::splat(0.02);
+            ObjectModel {
+                ids: vec![id],
+                half,
+                coarse: surface_cloud(&field, half, 0.04, CodeSet::default()),
+                fine: surface_cloud(&field, half, 0.025, CodeSet::default()),
+                placement: Placement::Floor,
+                against_wall: false,
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn the_present_object_is_placed_and_the_absent_one_is_not_invented() {
+    let empty = scene(None);
+    let camera = Pose::new(DMat3::IDENTITY, DVec3::new(1.5, 1.4, 1.4));
+    let truth = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, BOX_A.z as f64));
+    let width = 128;
+    let query = panorama(&scene(Some((0, truth))), &camera, width, 0.9);
+    let (room, depth) =
+        render_background(&empty, &camera, width as usize, &RenderConfig::default());
+    let view = View {
+        query,
+        empty: room,
+        empty_depth: depth,
+    };
+    let detections = ResidualDetector::default().detect(&view);
+    assert!(!detections.is_empty());
+    let models = object_models();
+    let found = find_objects(
+        &empty,
+        &view,
+        &camera,
+        &detections,
+        &models,
+        &SearchConfig::default(),
+    );
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert_eq!(found[0].id, 1);
+    let pose = Pose::from_rows_unchecked(&found[0].object_to_world);
+    let position = pose.translation.distance(truth.translation);
+    // The box looks the same turned by 180°.
+    let yaw = (pose.yaw() - truth.yaw()).rem_euclid(std::f64::consts::PI);
+    let yaw = yaw.min(std::f64::consts::PI - yaw).to_degrees();
+    assert!(position < 0.08, "position error {position} m");
+    assert!(yaw < 8.0, "yaw error {yaw}°");
+}

@@ -1,0 +1,499 @@
+//! `neuroom locate`: from a bare panorama and a trained room, the camera, the objects and their initial
+//! poses, then the holistic fit from there; and `neuroom bench locate`, which scores all of a room's test
+//! panoramas against their ground truth.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context as _;
+use glam::Vec3;
+use neuroom_core::formats::{self, ArrangedObject, Arrangement, Room, read_rgb, read_room};
+use neuroom_core::image::RgbImage;
+use neuroom_core::metrics::{ArrangementScore, GtObject, PredictedObject, evaluate_arrangement};
+use neuroom_core::pose::Pose;
+use neuroom_field::{CodeSet, NeusField};
+use neuroom_fit::{FitConfig, IterationLog};
+use neuroom_locate::cloud::surface_cloud;
+use neuroom_locate::evidence::{Detector, ResidualDetector, View};
+use neuroom_locate::objects::{Found, ObjectModel, Placement, SearchConfig, find_objects};
+use neuroom_locate::plane::{blur_rgb, downsample_rgb};
+use neuroom_locate::{
+    CameraEstimate, DATABASE_FILE, Database, DatabaseConfig, LocalizeConfig, build_database,
+    localize, render_background,
+};
+use neuroom_render::RenderConfig;
+use neuroom_render::scene::{Background, Model, Scene};
+use neuroom_train::{ModelKind, RoomModels};
+use serde::{Deserialize, Serialize};
+
+use crate::scene::load_models;
+
+/// The database file of a model folder.
+pub fn database_path(models: &Path) -> PathBuf {
+    models.join(DATABASE_FILE)
+}
+
+/// The empty room of loaded models: the background field alone (object fields stay in the list unused).
+pub fn empty_scene(models: &RoomModels) -> anyhow::Result<Scene<NeusField>> {
+    let index = models
+        .manifest
+        .models
+        .iter()
+        .position(|m| m.kind == ModelKind::Background)
+        .context("the model folder has no background model")?;
+    let bounds = &models.manifest.models[index].bounds;
+    Ok(Scene {
+        models: models.fields.iter().cloned().map(Model::neus).collect(),
+        background: Background {
+            model: index,
+            bounds_min: Vec3::from(bounds.min),
+            bounds_max: Vec3::from(bounds.max),
+            codes: Default::default(),
+            tone: Default::default(),
+        },
+        objects: Vec::new(),
+    })
+}
+
+/// Renders the localization database of the room in `models` and writes it beside its manifest
+/// (`locate.safetensors`). `neuroom train` calls this after the background is trained; `neuroom locate`
+/// calls it on first use when the file is missing. `progress` gets (done, total).
+pub fn build_locate_database(
+    models: &Path,
+    config: &DatabaseConfig,
+    progress: &mut dyn FnMut(usize, usize),
+) -> anyhow::Result<Database> {
+    let loaded = load_models(models)?;
+    let scene = empty_scene(&loaded)?;
+    let db = build_database(&scene, config, progress);
+    anyhow::ensure!(
+        !db.entries.is_empty(),
+        "{}: no database camera fits inside the background model's room",
+        models.display()
+    );
+    db.write(&database_path(models))?;
+    Ok(db)
+}
+
+/// The database of `models`, read from disk, or built and written when missing.
+pub fn ensure_database(
+    models: &Path,
+    config: &DatabaseConfig,
+    progress: &mut dyn FnMut(usize, usize),
+) -> anyhow::Result<Database> {
+    let path = database_path(models);
+    if path.exists() {
+        Ok(Database::read(&path)?)
+    } else {
+        build_locate_database(models, config, progress)
+    }
+}
+
+/// Settings of the locate pipeline.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LocateConfig {
+    /// The database, when it must be built.
+    pub database: DatabaseConfig,
+    /// Camera localization.
+    pub localize: LocalizeConfig,
+    /// Width of the panorama objects are searched in (height is half).
+    pub object_width: usize,
+    /// Rendering of the empty room the panorama is compared with.
+    pub render: RenderConfig,
+    /// Blur of that rendering (pixels): it is point-sampled and the panorama area-averaged.
+    pub empty_blur: f32,
+    /// Object detection from the difference with the empty room.
+    pub detector: ResidualDetector,
+    /// Pose hypotheses and their selection.
+    pub search: SearchConfig,
+}
+
+impl Default for LocateConfig {
+    fn default() -> Self {
+        Self {
+            database: DatabaseConfig::default(),
+            localize: LocalizeConfig::default(),
+            object_width: 256,
+            render: LocalizeConfig::default().render,
+            empty_blur: 0.7,
+            detector: ResidualDetector::default(),
+            search: SearchConfig::default(),
+        }
+    }
+}
+
+/// Searchable object models: one per object model of the manifest, with coloured surface clouds and
+/// where it may stand from room.json's relation hints (`on:NAME`, else `floor`, else `wall`; floor by
+/// default).
+pub fn object_models(room: &Room, loaded: &RoomModels) -> anyhow::Result<Vec<ObjectModel>> {
+    let entries: Vec<usize> = (0..loaded.manifest.models.len())
+        .filter(|&k| loaded.manifest.models[k].kind == ModelKind::Object)
+        .collect();
+    let model_of = |name: &str| {
+        let id = room.objects.iter().find(|o| o.name == name)?.id;
+        entries
+            .iter()
+            .position(|&k| loaded.manifest.models[k].ids.contains(&id))
+    };
+    entries
+        .iter()
+        .map(|&k| {
+            let entry = &loaded.manifest.models[k];
+            let first = room
+                .objects
+                .iter()
+                .find(|o| entry.ids.contains(&o.id))
+                .with_context(|| format!("model `{}` draws no object of room.json", entry.name))?;
+            let placement = placement(&first.relations, &model_of);
+            let against_wall =
+                placement == Placement::Floor && first.relations.iter().any(|r| r == "wall");
+            let half = Vec3::from(entry.bounds.max)
+                .abs()
+                .max(Vec3::from(entry.bounds.min).abs());
+            let spacing = (2.0 * half.max_element() / 25.0).clamp(0.02, 0.06);
+            let field = &loaded.fields[k];
+            Ok(ObjectModel {
+                ids: entry.ids.clone(),
+                half,
+                coarse: surface_cloud(field, half, spacing, CodeSet::default()),
+                fine: surface_cloud(field, half, 0.6 * spacing, CodeSet::default()),
+                placement,
+                against_wall,
+            })
+        })
+        .collect()
+}
+
+fn placement(relations: &[String], model_of: &dyn Fn(&str) -> Option<usize>) -> Placement {
+    if let Some(m) = relations
+        .iter()
+        .find_map(|r| r.strip_prefix("on:").and_then(model_of))
+    {
+        return Placement::On(m);
+    }
+    let has = |k: &str| relations.iter().any(|r| r == k);
+    if !has("floor") && has("wall") {
+        Placement::Wall
+    } else {
+        Placement::Floor
+    }
+}
+
+/// Everything the locate pipeline needs in memory for one room.
+pub struct LocateContext {
+    /// room.json.
+    pub room: Room,
+    /// The empty room (background alone).
+    pub scene: Scene<NeusField>,
+    /// The localization database.
+    pub database: Database,
+    /// Searchable object models, in manifest order of the object models.
+    pub objects: Vec<ObjectModel>,
+}
+
+impl LocateContext {
+    /// Loads the room, its models and database (building the database when missing).
+    pub fn load(room: &Path, models: &Path, config: &LocateConfig) -> anyhow::Result<Self> {
+        let room = read_room(room)?;
+        let database = ensure_database(models, &config.database, &mut |_, _| {})?;
+        let loaded = load_models(models)?;
+        let objects = object_models(&room, &loaded)?;
+        let scene = empty_scene(&loaded)?;
+        Ok(Self {
+            room,
+            scene,
+            database,
+            objects,
+        })
+    }
+}
+
+/// What locating one panorama found.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Located {
+    /// The camera.
+    pub camera: CameraEstimate,
+    /// Detected regions.
+    pub detections: usize,
+    /// The objects placed, with their scores.
+    pub found: Vec<Found>,
+    /// Seconds: camera, objects.
+    pub seconds: [f64; 2],
+}
+
+/// Locates `image` in the room of `ctx`: camera, detections, objects and initial poses; returns the
+/// arrangement (FORMAT.md, with the camera; `image` names the panorama file) and the details.
+pub fn locate_image(
+    ctx: &LocateContext,
+    image: &RgbImage,
+    image_name: &str,
+    config: &LocateConfig,
+) -> anyhow::Result<(Arrangement, Located)> {
+    let t0 = Instant::now();
+    let camera = localize(&ctx.scene, &ctx.database, image, &config.localize)
+        .map_err(|m| anyhow::anyhow!("{image_name}: {m}"))?;
+    let t1 = Instant::now();
+    let pose = camera.pose();
+    let w = config.object_width;
+    let (empty, empty_depth) = render_background(&ctx.scene, &pose, w, &config.render);
+    let view = View {
+        query: downsample_rgb(image, w, w / 2),
+        empty: blur_rgb(&empty, config.empty_blur),
+        empty_depth,
+    };
+    let detections = config.detector.detect(&view);
+    let found = find_objects(
+        &ctx.scene,
+        &view,
+        &pose,
+        &detections,
+        &ctx.objects,
+        &config.search,
+    );
+    let objects = found
+        .iter()
+        .map(|f| ArrangedObject {
+            id: f.id,
+            name: ctx
+                .room
+                .objects
+                .iter()
+                .find(|o| o.id == f.id)
+                .map(|o| o.name.clone())
+                .unwrap_or_default(),
+            object_to_world: Pose::from_rows_unchecked(&f.object_to_world),
+            extra: Default::default(),
+        })
+        .collect();
+    let arrangement = Arrangement {
+        image: image_name.to_string(),
+        camera_to_world: pose,
+        objects,
+        lighting: serde_json::Value::Null,
+        extra: Default::default(),
+    };
+    let located = Located {
+        camera,
+        detections: detections.len(),
+        found,
+        seconds: [(t1 - t0).as_secs_f64(), t1.elapsed().as_secs_f64()],
+    };
+    Ok((arrangement, located))
+}
+
+/// What `neuroom locate` wrote.
+#[derive(Clone, Debug)]
+pub struct LocateOutputs {
+    /// The initial arrangement (camera + initial poses): `<OUT stem>.init.json`.
+    pub init: PathBuf,
+    /// The final arrangement (after the fit, when run).
+    pub arrangement: PathBuf,
+    /// What was found.
+    pub located: Located,
+}
+
+/// `neuroom locate`: finds the camera and the objects of `panorama` in `room` with the models in
+/// `models`, writes the initial arrangement beside `out` (`<stem>.init.json`), then, with `fit`, runs the
+/// holistic fit from it and writes the solved arrangement to `out` (without, `out` gets the initial one).
+pub fn locate(
+    room: &Path,
+    models: &Path,
+    panorama: &Path,
+    out: &Path,
+    config: &LocateConfig,
+    fit: Option<&FitConfig>,
+    progress: &mut dyn FnMut(&IterationLog),
+) -> anyhow::Result<LocateOutputs> {
+    let image = read_rgb(panorama)?.image;
+    anyhow::ensure!(
+        image.width == 2 * image.height,
+        "{}: a panorama must be twice as wide as it is high, found {}×{}",
+        panorama.display(),
+        image.width,
+        image.height
+    );
+    let ctx = LocateContext::load(room, models, config)?;
+    let name = panorama
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let (mut arrangement, located) = locate_image(&ctx, &image, &name, config)?;
+    arrangement
+        .extra
+        .insert("locate".into(), serde_json::to_value(&located)?);
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "locate".into());
+    let init = out.with_file_name(format!("{stem}.init.json"));
+    formats::write_arrangement(&init, &arrangement)?;
+    match fit {
+        Some(fit) if !arrangement.objects.is_empty() => {
+            crate::fit::fit_panorama(models, panorama, &init, Some(room), out, fit, progress)?;
+        }
+        _ => formats::write_arrangement(out, &arrangement)?,
+    }
+    Ok(LocateOutputs {
+        init,
+        arrangement: out.to_path_buf(),
+        located,
+    })
+}
+
+/// Scores of one test panorama.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PanoramaScore {
+    /// Panorama file name.
+    pub panorama: String,
+    /// Distance between the found and true camera centres (cm).
+    pub camera_position_error_cm: f64,
+    /// Geodesic angle between the found and true camera rotations (degrees).
+    pub camera_rotation_error_deg: f64,
+    /// Identification and initial-pose scores (FORMAT.md metrics).
+    pub objects: ArrangementScore,
+    /// Seconds for the whole panorama (camera + objects).
+    pub seconds: f64,
+    /// Details.
+    pub located: Located,
+}
+
+/// Means over the test panoramas.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct LocateMean {
+    /// Panoramas.
+    pub panoramas: usize,
+    /// Mean camera position error (cm).
+    pub camera_position_error_cm: f64,
+    /// Largest camera position error (cm).
+    pub camera_position_error_max_cm: f64,
+    /// Mean camera rotation error (degrees).
+    pub camera_rotation_error_deg: f64,
+    /// Largest camera rotation error (degrees).
+    pub camera_rotation_error_max_deg: f64,
+    /// Identification precision.
+    pub precision: f64,
+    /// Identification recall.
+    pub recall: f64,
+    /// Mean IoU (missed objects count 0), percent.
+    pub iou_percent: f64,
+    /// Mean rotation error of the found objects (degrees).
+    pub are_deg: f64,
+    /// Mean position error of the found objects (cm).
+    pub ape_cm: f64,
+    /// Mean seconds per panorama.
+    pub seconds: f64,
+}
+
+/// `neuroom bench locate`: locates every test panorama of `room` (those with ground truth) and scores
+/// camera, identification and initial poses. `each` sees every panorama's score as it is measured.
+pub fn bench_locate(
+    room: &Path,
+    models: &Path,
+    config: &LocateConfig,
+    each: &mut dyn FnMut(&PanoramaScore),
+) -> anyhow::Result<(Vec<PanoramaScore>, LocateMean)> {
+    let ctx = LocateContext::load(room, models, config)?;
+    let mut scores = Vec::new();
+    for (png, truth) in test_panoramas(room)? {
+        let image = read_rgb(&png)?.image;
+        let name = png
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let start = Instant::now();
+        let (arrangement, located) = locate_image(&ctx, &image, &name, config)?;
+        let seconds = start.elapsed().as_secs_f64();
+        let score = PanoramaScore {
+            panorama: name,
+            camera_position_error_cm: 100.0
+                * arrangement
+                    .camera_to_world
+                    .translation
+                    .distance(truth.camera_to_world.translation),
+            camera_rotation_error_deg: neuroom_core::metrics::rotation_error_deg(
+                truth.camera_to_world.rotation,
+                arrangement.camera_to_world.rotation,
+            ),
+            objects: score_objects(&ctx.room, &truth, &arrangement),
+            seconds,
+            located,
+        };
+        each(&score);
+        scores.push(score);
+    }
+    let mean = mean_scores(&scores);
+    Ok((scores, mean))
+}
+
+/// FORMAT.md's object metrics of `predicted` against `truth` (instances of one capture interchangeable).
+fn score_objects(room: &Room, truth: &Arrangement, predicted: &Arrangement) -> ArrangementScore {
+    let gt: Vec<GtObject> = truth
+        .objects
+        .iter()
+        .filter_map(|o| {
+            let r = room.objects.iter().find(|r| r.id == o.id)?;
+            Some(GtObject {
+                id: o.id,
+                model: r.capture.to_string_lossy().into_owned(),
+                size: r.size,
+                object_to_world: o.object_to_world,
+            })
+        })
+        .collect();
+    let pred: Vec<PredictedObject> = predicted
+        .objects
+        .iter()
+        .map(|o| PredictedObject {
+            id: o.id,
+            object_to_world: o.object_to_world,
+        })
+        .collect();
+    evaluate_arrangement(&gt, &pred)
+}
+
+fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {
+    let n = scores.len().max(1) as f64;
+    let mean = |f: &dyn Fn(&PanoramaScore) -> f64| scores.iter().map(f).sum::<f64>() / n;
+    let max = |f: &dyn Fn(&PanoramaScore) -> f64| scores.iter().map(f).fold(0.0, f64::max);
+    LocateMean {
+        panoramas: scores.len(),
+        camera_position_error_cm: mean(&|s| s.camera_position_error_cm),
+        camera_position_error_max_cm: max(&|s| s.camera_position_error_cm),
+        camera_rotation_error_deg: mean(&|s| s.camera_rotation_error_deg),
+        camera_rotation_error_max_deg: max(&|s| s.camera_rotation_error_deg),
+        precision: mean(&|s| s.objects.precision),
+        recall: mean(&|s| s.objects.recall),
+        iou_percent: mean(&|s| s.objects.mean_iou_percent.unwrap_or(0.0)),
+        are_deg: mean(&|s| s.objects.mean_rotation_error_deg.unwrap_or(0.0)),
+        ape_cm: mean(&|s| s.objects.mean_position_error_cm.unwrap_or(0.0)),
+        seconds: mean(&|s| s.seconds),
+    }
+}
+
+/// The test panoramas of a room folder: `panoramas/*.png` with a ground-truth `*.json` beside them.
+pub fn test_panoramas(room: &Path) -> anyhow::Result<Vec<(PathBuf, Arrangement)>> {
+    let dir = room.join("panoramas");
+    let entries =
+        std::fs::read_dir(&dir).with_context(|| format!("{}: cannot list", dir.display()))?;
+    let mut paths: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            let name = p.to_string_lossy();
+            name.ends_with(".png") && !name.ends_with(".depth.png") && !name.ends_with(".mask.png")
+        })
+        .collect();
+    paths.sort();
+    let mut out = Vec::new();
+    for png in paths {
+        let json = png.with_extension("json");
+        if json.exists() {
+            out.push((png, formats::read_arrangement(&json)?));
+        }
+    }
+    anyhow::ensure!(
+        !out.is_empty(),
+        "{}: no panorama with a ground-truth arrangement",
+        dir.display()
+    );
+    Ok(out)
+}
