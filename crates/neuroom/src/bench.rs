@@ -126,7 +126,7 @@ pub fn describe_render(r: &neuroom_render::bench::RenderBenchReport) -> String {
 
 /// Trains one model of the room (`background` or an object name) from scratch within `seconds` (default:
 /// the training default) and evaluates it on held-out views. With `cpu_clock`, the budget counts CPU
-/// seconds per worker thread, so a shared machine gives the step count of an idle one.
+/// seconds per worker thread, which other programs on the machine do not shrink.
 pub fn train(
     room: &std::path::Path,
     model: &str,

@@ -61,8 +61,9 @@ struct TrainArgs {
     /// Time budget in seconds (default: the training default for that kind of model).
     #[arg(long)]
     seconds: Option<f64>,
-    /// Count the budget in CPU seconds per worker thread instead of wall-clock seconds: the step count
-    /// of an idle machine with that many cores, even when other programs share this one.
+    /// Count the budget in CPU seconds per worker thread instead of wall-clock seconds, so other programs
+    /// on the machine do not shrink it (it runs more steps than the same wall-clock seconds on an idle
+    /// machine, where the threads also wait for each other).
     #[arg(long)]
     cpu_clock: bool,
     /// Print the report as JSON after the text.
