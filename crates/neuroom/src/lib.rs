@@ -3,6 +3,7 @@
 //! importing one another.
 
 pub mod bench;
+pub mod bench_fit;
 pub mod demo;
 pub mod edit;
 pub mod export;

@@ -34,6 +34,13 @@ enum Which {
     ///
     /// Example: `neuroom bench train rooms/bedroom chair --seconds 300 --json`
     Train(TrainArgs),
+    /// The holistic fit on a room's trained models: for every test panorama with a ground truth, initial
+    /// poses = ground truth + seeded noise (±25 cm, ±20° yaw, ±5° tilt), the camera known; mean IoU,
+    /// ARE and APE before and after, and wall time. Optionally the paper's ablation, light adaptation
+    /// (Table 2), safe-region against classical sampling (Table 3's convergence) and the timing case.
+    ///
+    /// Example: `neuroom bench fit rooms/bedroom models/bedroom --ablations --light --sampling --timing --json`
+    Fit(FitArgs),
     /// Locate every test panorama of a room (`panoramas/*.png` with ground truth beside them) and score
     /// the camera, the identification and the initial poses against the ground truth.
     ///
@@ -48,6 +55,56 @@ struct LocateArgs {
     /// The room's model folder (as written by `neuroom train`).
     models: PathBuf,
     /// Print one JSON object per panorama and one for the mean, after the text.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args)]
+struct FitArgs {
+    /// Room folder (room.json, `panoramas/*.png` with ground-truth `*.json`).
+    room: PathBuf,
+    /// The room's model folder (as written by `neuroom train`).
+    models: PathBuf,
+    /// Panorama file stems to run (comma-separated; default: all with a ground truth).
+    #[arg(long, value_delimiter = ',')]
+    panoramas: Vec<String>,
+    /// Seed of the pose noise and of the fit's sampling.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Pose noise bounds: horizontal position (cm), yaw (degrees), tilt (degrees).
+    #[arg(long, value_delimiter = ',', default_values_t = [25.0, 20.0, 5.0])]
+    noise: Vec<f64>,
+    /// Skip the pose cases (run only the sections asked for below).
+    #[arg(long)]
+    skip_poses: bool,
+    /// Also run the paper's ablation (w/o photometric, w/o physical, w/o observation, photometric only).
+    #[arg(long)]
+    ablations: bool,
+    /// Light adaptation (Table 2): PSNR with no adaptation, tone only, light codes only, both.
+    #[arg(long)]
+    light: bool,
+    /// Rows of the light-adaptation re-render (the input is box-filtered to them).
+    #[arg(long, default_value_t = 256)]
+    light_height: u32,
+    /// Safe-region against classical sampling on the first panorama (Table 3's convergence).
+    #[arg(long)]
+    sampling: bool,
+    /// Rays per iteration of the sampling comparison.
+    #[arg(long, default_value_t = 256)]
+    sampling_rays: usize,
+    /// The timing case: 500 pose iterations of 1024 rays with 5 objects.
+    #[arg(long)]
+    timing: bool,
+    /// Pose iterations of each fit (default: the fit's default).
+    #[arg(long)]
+    pose_iterations: Option<usize>,
+    /// Stage-2 iterations (light adaptation runs and fits).
+    #[arg(long)]
+    appearance_iterations: Option<usize>,
+    /// Rays on the objects per iteration.
+    #[arg(long)]
+    rays: Option<usize>,
+    /// Print one JSON object per line after each text line.
     #[arg(long)]
     json: bool,
 }
@@ -144,6 +201,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string(&report)?);
             }
         }
+        Which::Fit(a) => fit(a)?,
         Which::Locate(a) => run_locate(&a)?,
         Which::Render(a) => {
             let report = bench::render(a.iterations)?;
@@ -154,6 +212,50 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+fn fit(a: FitArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        a.noise.len() == 3 && a.noise.iter().all(|v| v.is_finite() && *v >= 0.0),
+        "--noise takes three non-negative numbers: centimetres, yaw degrees, tilt degrees"
+    );
+    let mut config = neuroom_fit::FitConfig::default();
+    config.pose_iterations = a.pose_iterations.unwrap_or(config.pose_iterations);
+    config.appearance_iterations = a
+        .appearance_iterations
+        .unwrap_or(config.appearance_iterations);
+    config.rays = a.rays.unwrap_or(config.rays);
+    let spec = neuroom::bench_fit::FitBench {
+        room: a.room,
+        models: a.models,
+        panoramas: a.panoramas,
+        seed: a.seed,
+        noise: neuroom_fit::bench::PoseNoise {
+            position_m: a.noise[0] / 100.0,
+            yaw_deg: a.noise[1],
+            tilt_deg: a.noise[2],
+        },
+        config,
+        poses: !a.skip_poses,
+        ablations: a.ablations,
+        light_height: a.light.then_some(a.light_height),
+        light_iterations: config.appearance_iterations,
+        sampling: a
+            .sampling
+            .then_some((a.sampling_rays, config.pose_iterations)),
+        timing_iterations: a.timing.then_some(500),
+    };
+    let mut failed = None;
+    neuroom::bench_fit::fit_bench(&spec, &mut |row| {
+        println!("{}", neuroom::bench_fit::describe(row));
+        if a.json {
+            match serde_json::to_string(row) {
+                Ok(line) => println!("{line}"),
+                Err(e) => failed = Some(e),
+            }
+        }
+    })?;
+    failed.map_or(Ok(()), |e| Err(e.into()))
 }
 
 /// `neuroom bench locate`: camera, identification and initial-pose scores per panorama and their mean.
