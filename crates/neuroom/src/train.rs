@@ -55,12 +55,32 @@ pub fn train_room(
     options: &TrainOptions,
     progress: &dyn TrainProgress,
 ) -> anyhow::Result<TrainSummary> {
-    Ok(neuroom_train::train_room(
-        room,
-        models,
-        &options.config(),
-        progress,
-    )?)
+    let summary = neuroom_train::train_room(room, models, &options.config(), progress)?;
+    if summary.manifest.complete {
+        build_locate_database(&summary.dir, progress)?;
+    }
+    Ok(summary)
+}
+
+/// Renders the camera-localization database of `neuroom locate` once every model is trained (kept when
+/// it is already there).
+fn build_locate_database(dir: &Path, progress: &dyn TrainProgress) -> anyhow::Result<()> {
+    if crate::locate::database_path(dir).exists() {
+        return Ok(());
+    }
+    let start = std::time::Instant::now();
+    progress.start("locate database", 0, 0);
+    let db = crate::locate::build_locate_database(
+        dir,
+        &neuroom_locate::database::DatabaseConfig::default(),
+        &mut |_, _| {},
+    )?;
+    progress.finish(&format!(
+        "{} panoramas of the empty room in {:.0} s",
+        db.entries.len(),
+        start.elapsed().as_secs_f64()
+    ));
+    Ok(())
 }
 
 /// One line describing a trained model and its held-out figures.
