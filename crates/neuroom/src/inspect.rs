@@ -26,7 +26,10 @@ pub struct RoomReport {
     pub object_captures: Vec<CaptureReport>,
     /// Test panoramas found in `panoramas/`.
     pub panoramas: Vec<PanoramaReport>,
-    /// Things that are allowed but worth knowing (conversions made, meshes that disagree with sizes…).
+    /// The environment maps training relights the captures with.
+    pub env_maps: Vec<EnvMapReport>,
+    /// Warnings: things that are allowed but worth knowing (conversions made, meshes that disagree with
+    /// sizes, files nothing refers to…).
     pub notes: Vec<String>,
 }
 
@@ -81,11 +84,31 @@ pub struct PanoramaReport {
     pub mask: bool,
 }
 
-/// Reads room.json and decodes every file it names and every panorama, checking sizes and ids.
+/// One decoded environment map.
+#[derive(Clone, Debug, Serialize)]
+pub struct EnvMapReport {
+    /// The file.
+    pub path: PathBuf,
+    /// Width and height.
+    pub size: (u32, u32),
+}
+
+/// Reads room.json and decodes every file it names, every panorama with its side files, every mesh and
+/// the environment maps training uses by default, checking sizes and ids. The first bad file ends the
+/// check with an error naming it.
 pub fn inspect_room(path: &Path) -> FormatResult<RoomReport> {
+    inspect_room_with(path, &neuroom_train::augment::vendored_env_maps())
+}
+
+/// [`inspect_room`] with the environment maps `env_maps` (those a training run will use).
+pub fn inspect_room_with(path: &Path, env_maps: &[PathBuf]) -> FormatResult<RoomReport> {
     let room = formats::read_room(path)?;
     let mut notes = Vec::new();
-    let known: BTreeSet<u16> = room.objects.iter().map(|o| o.id).collect();
+    let known: BTreeMap<u16, &str> = room
+        .objects
+        .iter()
+        .map(|o| (o.id, o.name.as_str()))
+        .collect();
     let background = inspect_capture(
         &room.capture_dir(&room.background.capture),
         &known,
@@ -104,7 +127,9 @@ pub fn inspect_room(path: &Path) -> FormatResult<RoomReport> {
         .iter()
         .map(|o| inspect_object(&room, o, &mut notes))
         .collect::<FormatResult<Vec<_>>>()?;
-    let panoramas = inspect_panoramas(&room, &known)?;
+    check_stray_meshes(&room, &mut notes)?;
+    let panoramas = inspect_panoramas(&room, &known, &mut notes)?;
+    let env_maps = inspect_env_maps(env_maps)?;
     Ok(RoomReport {
         name: room.name.clone(),
         root: room.root.clone(),
@@ -112,8 +137,23 @@ pub fn inspect_room(path: &Path) -> FormatResult<RoomReport> {
         objects,
         object_captures,
         panoramas,
+        env_maps,
         notes,
     })
+}
+
+/// Decodes every environment map in `paths` (in parallel).
+pub fn inspect_env_maps(paths: &[PathBuf]) -> FormatResult<Vec<EnvMapReport>> {
+    paths
+        .par_iter()
+        .map(|p| {
+            let map = formats::read_envmap(p)?;
+            Ok(EnvMapReport {
+                path: p.clone(),
+                size: (map.width, map.height),
+            })
+        })
+        .collect()
 }
 
 fn inspect_object(
@@ -124,6 +164,9 @@ fn inspect_object(
     let mesh_path = room.root.join("meshes").join(format!("{}.ply", o.name));
     let mesh_triangles = if mesh_path.exists() {
         let mesh = read_ply(&mesh_path)?;
+        if mesh.triangles.is_empty() {
+            return Err(FormatError::file(&mesh_path, "mesh has no triangles"));
+        }
         if let Some((lo, hi)) = mesh.bounds() {
             let extent = (hi - lo).as_dvec3();
             let worst = ((extent - o.size).abs() / o.size).max_element();
@@ -151,6 +194,40 @@ fn inspect_object(
     })
 }
 
+/// Decodes the meshes of `meshes/` that no object of room.json names, and notes each one.
+fn check_stray_meshes(room: &Room, notes: &mut Vec<String>) -> FormatResult<()> {
+    let dir = room.root.join("meshes");
+    for path in files_in(&dir) {
+        let name = path
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let Some(stem) = name.strip_suffix(".ply") else {
+            continue;
+        };
+        if room.object_by_name(stem).is_none() {
+            read_ply(&path)?;
+            notes.push(format!(
+                "{}: no object of room.json is called `{stem}`",
+                path.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The files of `dir`, sorted; none when it does not exist.
+fn files_in(dir: &Path) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file())
+        .collect();
+    files.sort();
+    files
+}
+
 /// What decoding one frame found.
 struct FrameFacts {
     size: (u32, u32),
@@ -161,14 +238,14 @@ struct FrameFacts {
 
 fn inspect_capture(
     dir: &Path,
-    known: &BTreeSet<u16>,
+    known: &BTreeMap<u16, &str>,
     notes: &mut Vec<String>,
 ) -> FormatResult<CaptureReport> {
     let capture = formats::read_capture(dir)?;
     let facts: Vec<FrameFacts> = capture
         .frames
         .par_iter()
-        .map(|f| inspect_frame(&capture, f))
+        .map(|f| inspect_frame(&capture, f, known))
         .collect::<FormatResult<_>>()?;
     let mut ids = BTreeSet::new();
     let mut sizes = BTreeSet::new();
@@ -182,12 +259,6 @@ fn inspect_capture(
     }
     for (what, count) in conversions {
         notes.push(format!("{}: {count} images: {what}", dir.display()));
-    }
-    if let Some(bad) = ids.iter().find(|id| **id != 0 && !known.contains(id)) {
-        return Err(FormatError::file(
-            dir,
-            format!("instance masks hold id {bad}, which room.json does not list"),
-        ));
     }
     let with_depth: Vec<f64> = facts.iter().filter_map(|f| f.depth_valid).collect();
     Ok(CaptureReport {
@@ -205,7 +276,11 @@ fn inspect_capture(
     })
 }
 
-fn inspect_frame(capture: &Capture, frame: &formats::Frame) -> FormatResult<FrameFacts> {
+fn inspect_frame(
+    capture: &Capture,
+    frame: &formats::Frame,
+    known: &BTreeMap<u16, &str>,
+) -> FormatResult<FrameFacts> {
     let image_path = capture.resolve(&frame.image);
     let decoded = formats::read_rgba(&image_path)?;
     let size = (decoded.image.width, decoded.image.height);
@@ -232,12 +307,7 @@ fn inspect_frame(capture: &Capture, frame: &formats::Frame) -> FormatResult<Fram
         None => None,
     };
     let ids = match &frame.instance {
-        Some(p) => {
-            let path = capture.resolve(p);
-            let mask = formats::read_mask(&path)?;
-            formats::check_same_size(&image_path, size, &path, (mask.width, mask.height))?;
-            mask.data.iter().copied().collect()
-        }
+        Some(p) => read_checked_mask(&capture.resolve(p), &image_path, size, known)?,
         None => BTreeSet::new(),
     };
     Ok(FrameFacts {
@@ -248,20 +318,57 @@ fn inspect_frame(capture: &Capture, frame: &formats::Frame) -> FormatResult<Fram
     })
 }
 
-fn inspect_panoramas(room: &Room, known: &BTreeSet<u16>) -> FormatResult<Vec<PanoramaReport>> {
+/// Reads the instance mask at `path`, checks that it is the size of its image and holds only ids that
+/// room.json lists, and returns the ids it holds.
+fn read_checked_mask(
+    path: &Path,
+    image: &Path,
+    size: (u32, u32),
+    known: &BTreeMap<u16, &str>,
+) -> FormatResult<BTreeSet<u16>> {
+    let mask = formats::read_mask(path)?;
+    formats::check_same_size(image, size, path, (mask.width, mask.height))?;
+    let ids: BTreeSet<u16> = mask.data.iter().copied().collect();
+    if let Some(bad) = ids.iter().find(|id| **id != 0 && !known.contains_key(id)) {
+        return Err(FormatError::file(
+            path,
+            format!("holds instance id {bad}, which room.json does not list"),
+        ));
+    }
+    Ok(ids)
+}
+
+fn inspect_panoramas(
+    room: &Room,
+    known: &BTreeMap<u16, &str>,
+    notes: &mut Vec<String>,
+) -> FormatResult<Vec<PanoramaReport>> {
     let dir = room.root.join("panoramas");
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        return Ok(Vec::new());
-    };
-    let mut names: Vec<String> = entries
-        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
-        .filter(|n| is_panorama_image(n))
+    let names: Vec<String> = files_in(&dir)
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
         .collect();
-    names.sort();
-    names
+    let panoramas: Vec<&String> = names.iter().filter(|n| is_panorama_image(n)).collect();
+    for n in &names {
+        let stem = side_file_stem(n);
+        if !is_panorama_image(n) && !panoramas.iter().any(|p| image_stem(p) == stem) {
+            notes.push(format!(
+                "{}: no panorama image `{stem}.png` for it",
+                dir.join(n).display()
+            ));
+        }
+    }
+    let checked: Vec<(PanoramaReport, Vec<String>)> = panoramas
         .par_iter()
         .map(|n| inspect_panorama(&dir, n, known))
-        .collect()
+        .collect::<FormatResult<_>>()?;
+    Ok(checked
+        .into_iter()
+        .map(|(report, conversions)| {
+            notes.extend(conversions);
+            report
+        })
+        .collect())
 }
 
 /// A panorama is a colour image that is not one of the ground-truth side files.
@@ -271,22 +378,40 @@ fn is_panorama_image(name: &str) -> bool {
     image && !lower.ends_with(".depth.png") && !lower.ends_with(".mask.png")
 }
 
-fn inspect_panorama(dir: &Path, name: &str, known: &BTreeSet<u16>) -> FormatResult<PanoramaReport> {
+/// `bedroom_a0` for `bedroom_a0.png`.
+fn image_stem(name: &str) -> &str {
+    name.rsplit_once('.').map_or(name, |(s, _)| s)
+}
+
+/// `bedroom_a0` for `bedroom_a0.json`, `bedroom_a0.depth.png` and `bedroom_a0.mask.png`.
+fn side_file_stem(name: &str) -> &str {
+    [".depth.png", ".mask.png", ".json"]
+        .iter()
+        .find_map(|s| name.strip_suffix(s))
+        .unwrap_or_else(|| image_stem(name))
+}
+
+/// Checks one panorama and its side files; returns its report and a note per conversion made.
+fn inspect_panorama(
+    dir: &Path,
+    name: &str,
+    known: &BTreeMap<u16, &str>,
+) -> FormatResult<(PanoramaReport, Vec<String>)> {
     let path = dir.join(name);
-    let image = formats::read_rgb(&path)?.image;
+    let decoded = formats::read_rgb(&path)?;
+    let image = decoded.image;
     Equirect::new(image.width, image.height).map_err(|e| FormatError::file(&path, e))?;
-    let stem = name.rsplit_once('.').map_or(name, |(s, _)| s);
+    let notes = decoded
+        .conversions
+        .iter()
+        .map(|c| format!("{}: {c}", path.display()))
+        .collect();
+    let stem = image_stem(name);
     let size = (image.width, image.height);
+    drop(image);
     let gt = dir.join(format!("{stem}.json"));
     if gt.exists() {
-        let arrangement = formats::read_arrangement(&gt)?;
-        if let Some(o) = arrangement.objects.iter().find(|o| !known.contains(&o.id)) {
-            return Err(FormatError::field(
-                &gt,
-                "objects",
-                format!("id {} is not in room.json", o.id),
-            ));
-        }
+        check_arrangement_ids(&gt, known)?;
     }
     let depth = dir.join(format!("{stem}.depth.png"));
     if depth.exists() {
@@ -295,22 +420,41 @@ fn inspect_panorama(dir: &Path, name: &str, known: &BTreeSet<u16>) -> FormatResu
     }
     let mask = dir.join(format!("{stem}.mask.png"));
     if mask.exists() {
-        let m = formats::read_mask(&mask)?;
-        formats::check_same_size(&path, size, &mask, (m.width, m.height))?;
-        if let Some(bad) = m.data.iter().find(|id| **id != 0 && !known.contains(id)) {
-            return Err(FormatError::file(
-                &mask,
-                format!("holds id {bad}, which room.json does not list"),
-            ));
-        }
+        read_checked_mask(&mask, &path, size, known)?;
     }
-    Ok(PanoramaReport {
+    let report = PanoramaReport {
         name: name.to_string(),
         size,
         ground_truth: gt.exists(),
         depth: depth.exists(),
         mask: mask.exists(),
-    })
+    };
+    Ok((report, notes))
+}
+
+/// Reads a ground-truth arrangement and checks that every object is one of room.json, by id and name.
+fn check_arrangement_ids(path: &Path, known: &BTreeMap<u16, &str>) -> FormatResult<()> {
+    let arrangement = formats::read_arrangement(path)?;
+    for (i, o) in arrangement.objects.iter().enumerate() {
+        match known.get(&o.id) {
+            None => {
+                return Err(FormatError::field(
+                    path,
+                    format!("objects[{i}].id"),
+                    format!("id {} is not in room.json", o.id),
+                ));
+            }
+            Some(name) if *name != o.name => {
+                return Err(FormatError::field(
+                    path,
+                    format!("objects[{i}].name"),
+                    format!("id {} is `{name}` in room.json, not `{}`", o.id, o.name),
+                ));
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
 }
 
 impl std::fmt::Display for RoomReport {
@@ -348,8 +492,17 @@ impl std::fmt::Display for RoomReport {
                 if p.mask { ", mask" } else { "" }
             )?;
         }
+        for m in &self.env_maps {
+            writeln!(
+                f,
+                "  environment map {} {}×{}",
+                m.path.display(),
+                m.size.0,
+                m.size.1
+            )?;
+        }
         for n in &self.notes {
-            writeln!(f, "  note: {n}")?;
+            writeln!(f, "  warning: {n}")?;
         }
         Ok(())
     }
@@ -375,6 +528,96 @@ impl std::fmt::Display for CaptureReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const TINY: &str = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../neuroom-core/tests/rooms/tiny"
+    );
+    const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../neuroom-core/tests/corpus");
+
+    /// A copy of the tiny test room in a temporary folder.
+    fn tiny_copy() -> tempfile::TempDir {
+        fn copy(from: &Path, to: &Path) {
+            std::fs::create_dir_all(to).unwrap();
+            for e in std::fs::read_dir(from).unwrap() {
+                let e = e.unwrap();
+                if e.file_type().unwrap().is_dir() {
+                    copy(&e.path(), &to.join(e.file_name()));
+                } else {
+                    std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+                }
+            }
+        }
+        let dir = tempfile::tempdir().unwrap();
+        copy(Path::new(TINY), dir.path());
+        dir
+    }
+
+    #[test]
+    fn the_tiny_room_passes_without_warnings() {
+        let report = inspect_room_with(Path::new(TINY), &[]).unwrap();
+        assert_eq!(report.background.frames, 2);
+        assert_eq!(report.object_captures[0].instance_ids, vec![0, 1]);
+        assert_eq!(report.panoramas.len(), 1);
+        assert!(report.panoramas[0].ground_truth && report.panoramas[0].mask);
+        assert_eq!(report.objects[0].mesh_triangles, Some(12));
+        assert!(report.notes.is_empty(), "{:?}", report.notes);
+    }
+
+    #[test]
+    fn a_grayscale_panorama_is_read_with_a_warning() {
+        let room = tiny_copy();
+        let pano = room.path().join("panoramas");
+        std::fs::copy(Path::new(CORPUS).join("gen_gray8.png"), pano.join("p0.png")).unwrap();
+        std::fs::remove_file(pano.join("p0.depth.png")).unwrap();
+        std::fs::remove_file(pano.join("p0.mask.png")).unwrap();
+        let report = inspect_room_with(room.path(), &[]).unwrap();
+        assert_eq!(report.panoramas[0].size, (8, 4));
+        assert!(
+            report
+                .notes
+                .iter()
+                .any(|n| n.contains("p0.png") && n.contains("grayscale converted to RGB")),
+            "{:?}",
+            report.notes
+        );
+    }
+
+    #[test]
+    fn an_arrangement_that_misnames_an_object_is_rejected() {
+        let room = tiny_copy();
+        let path = room.path().join("panoramas/p0.json");
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(&path, text.replace("\"box\"", "\"crate\"")).unwrap();
+        let err = inspect_room_with(room.path(), &[]).unwrap_err();
+        assert_eq!(err.path, path);
+        assert_eq!(err.field.as_deref(), Some("objects[0].name"));
+        assert!(err.to_string().contains("`box` in room.json"), "{err}");
+    }
+
+    #[test]
+    fn stray_side_files_and_meshes_are_noted() {
+        let room = tiny_copy();
+        let root = room.path();
+        std::fs::copy(
+            root.join("panoramas/p0.json"),
+            root.join("panoramas/q1.json"),
+        )
+        .unwrap();
+        std::fs::copy(root.join("meshes/box.ply"), root.join("meshes/ghost.ply")).unwrap();
+        let notes = inspect_room_with(root, &[]).unwrap().notes;
+        assert!(notes.iter().any(|n| n.contains("q1.json")), "{notes:?}");
+        assert!(notes.iter().any(|n| n.contains("`ghost`")), "{notes:?}");
+    }
+
+    #[test]
+    fn a_bad_environment_map_is_named() {
+        let bad = Path::new(CORPUS).join("gen_envmap_square.hdr");
+        let err = inspect_room_with(Path::new(TINY), std::slice::from_ref(&bad)).unwrap_err();
+        assert_eq!(err.path, bad);
+        let ok = inspect_env_maps(&neuroom_train::augment::vendored_env_maps()).unwrap();
+        assert!(ok.iter().all(|m| m.size.0 == 2 * m.size.1));
+    }
 
     const BLENDER_LITE: &str = concat!(
         env!("CARGO_MANIFEST_DIR"),

@@ -48,14 +48,18 @@ impl TrainOptions {
     }
 }
 
-/// Trains (or resumes) every model of the room at `room` into `models/<room name>/`.
+/// Trains (or resumes) every model of the room at `room` into `models/<room name>/`. Every file of the
+/// room and every environment map is decoded and checked first, so a bad file fails in seconds, not after
+/// hours of training.
 pub fn train_room(
     room: &Path,
     models: &Path,
     options: &TrainOptions,
     progress: &dyn TrainProgress,
 ) -> anyhow::Result<TrainSummary> {
-    let summary = neuroom_train::train_room(room, models, &options.config(), progress)?;
+    let config = options.config();
+    crate::inspect::inspect_room_with(room, &config.env_maps)?;
+    let summary = neuroom_train::train_room(room, models, &config, progress)?;
     if summary.manifest.complete {
         build_locate_database(&summary.dir, progress)?;
     }

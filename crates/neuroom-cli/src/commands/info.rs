@@ -2,7 +2,10 @@
 
 use std::path::PathBuf;
 
-/// Decode and check every file of a room (room.json, captures, panoramas, meshes) and print what was found.
+/// Decode and check every file of a room (room.json, every capture frame with its depth and mask, panoramas
+/// with their side files, meshes, and the environment maps training uses) and print what was found and any
+/// warning (conversions made, files nothing refers to). A bad file ends it with exit code 2 and a message
+/// naming the file.
 ///
 /// Example: `neuroom info ../shared/data/blender-lite`
 #[derive(clap::Args)]
