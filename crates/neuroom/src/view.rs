@@ -36,6 +36,27 @@ pub enum ViewCamera {
 }
 
 impl ViewCamera {
+    /// A pinhole camera when both `eye` and `target` are given (height defaults to ¾ of the width), the
+    /// arrangement's panorama otherwise: what every rendering command's `--eye/--look-at` options mean.
+    pub fn from_options(
+        eye: Option<DVec3>,
+        target: Option<DVec3>,
+        width: u32,
+        height: Option<u32>,
+        fov_deg: f64,
+    ) -> Self {
+        match (eye, target) {
+            (Some(eye), Some(target)) => ViewCamera::Pinhole {
+                width,
+                height: height.unwrap_or(width * 3 / 4),
+                fov_deg,
+                eye,
+                target,
+            },
+            _ => ViewCamera::Panorama { width },
+        }
+    }
+
     /// The camera model and its pose, given the arrangement's panorama camera.
     pub fn resolve(&self, panorama_pose: &Pose) -> anyhow::Result<(Camera, Pose)> {
         match *self {

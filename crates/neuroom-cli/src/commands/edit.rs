@@ -55,16 +55,7 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let camera = match (args.eye, args.look_at) {
-        (Some(eye), Some(target)) => ViewCamera::Pinhole {
-            width: args.width,
-            height: args.width * 3 / 4,
-            fov_deg: args.fov,
-            eye,
-            target,
-        },
-        _ => ViewCamera::Panorama { width: args.width },
-    };
+    let camera = ViewCamera::from_options(args.eye, args.look_at, args.width, None, args.fov);
     let camera = (!args.no_render).then_some(&camera);
     let out = neuroom::edit::edit_arrangement(
         &args.models,

@@ -95,16 +95,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = tour_path(&args) {
         return run_tour(&args, &path);
     }
-    let camera = match (args.eye, args.look_at) {
-        (Some(eye), Some(target)) => ViewCamera::Pinhole {
-            width: args.width,
-            height: args.height.unwrap_or(args.width * 3 / 4),
-            fov_deg: args.fov,
-            eye,
-            target,
-        },
-        _ => ViewCamera::Panorama { width: args.width },
-    };
+    let camera =
+        ViewCamera::from_options(args.eye, args.look_at, args.width, args.height, args.fov);
     let view = neuroom::view::render_arrangement(&args.models, &args.arrangement, &camera)?;
     neuroom::view::write_view(
         &view,
