@@ -313,7 +313,7 @@ pub fn analytic_room(
 }
 
 /// The layout of [`analytic_room`] with untrained NeuS fields of the default sizes (each its analytic
-/// base: a sphere per object, an inside-out sphere for the room): the network cost of a fit with trained
+/// base: a sphere per object, the inside-out room box for the room): the network cost of a fit with trained
 /// models, for timing runs that have none.
 pub fn untrained_neus_room(n: usize, height: u32, config: &FitConfig) -> BenchRoom<NeusField> {
     let analytic = analytic_room(n, 1.0, 1, config);
