@@ -20,6 +20,7 @@ pub mod checkpoint;
 pub mod clock;
 pub mod field;
 pub mod hash;
+pub mod health;
 pub mod kernel;
 pub mod mlp;
 pub mod neus;

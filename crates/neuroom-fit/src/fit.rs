@@ -21,6 +21,7 @@ use neuroom_core::camera::{CameraModel, Equirect};
 use neuroom_core::image::RgbImage;
 use neuroom_core::rotation6d::rotation_to_6d_f32;
 use neuroom_core::{Pose, Ray};
+use neuroom_field::health::{Health, MAX_FAULTS_IN_A_ROW};
 use neuroom_field::{Adam, AdamConfig, Group, NUM_GROUPS, Params};
 use neuroom_render::volume::RayOutput;
 use neuroom_render::{Renderer, Scene, Tone, render_image};
@@ -150,6 +151,12 @@ pub struct FitReport {
     pub log: Vec<IterationLog>,
     /// Time spent.
     pub timings: FitTimings,
+    /// Steps skipped because their loss or gradient was not finite.
+    #[serde(default)]
+    pub faulty_steps: u64,
+    /// Objects that left the room, and other things the user should know.
+    #[serde(default)]
+    pub warnings: Vec<String>,
 }
 
 /// What a fit returns.
@@ -167,6 +174,10 @@ pub struct FitResult<F> {
     pub log: Vec<IterationLog>,
     /// Time spent.
     pub timings: FitTimings,
+    /// Steps skipped because their loss or gradient was not finite.
+    pub faulty_steps: u64,
+    /// What the caller should be told: objects that left the room.
+    pub warnings: Vec<String>,
     /// The panorama rendered at the initial estimate (if previews were asked for).
     pub before: Option<RgbImage>,
     /// The panorama rendered at the solution.
@@ -194,6 +205,8 @@ impl<F> FitResult<F> {
             relations: self.relations.clone(),
             log: self.log.clone(),
             timings: self.timings,
+            faulty_steps: self.faulty_steps,
+            warnings: self.warnings.clone(),
         }
     }
 }
@@ -255,12 +268,14 @@ pub fn fit<F: FitField>(
     for it in 0..config.pose_iterations {
         log.push(fitter.pose_step(it));
         progress(log.last().expect("just pushed"));
+        fitter.check_health(it)?;
     }
     timings.poses_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     for it in 0..config.appearance_iterations {
         log.push(fitter.appearance_step(config.pose_iterations + it));
         progress(log.last().expect("just pushed"));
+        fitter.check_health(config.pose_iterations + it)?;
     }
     timings.appearance_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -315,6 +330,8 @@ pub struct Fitter<'a, F: FitField> {
     probe: Probe,
     d_sdf: Vec<f32>,
     pose_adam: ScalarAdam,
+    /// Non-finite steps skipped and the step-size scale they left.
+    health: Health,
     pose_params: Vec<f32>,
     pose_flat_grads: Vec<f32>,
     pose_lr: Vec<f32>,
@@ -387,6 +404,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
             probe: Probe::default(),
             d_sdf: Vec::new(),
             pose_adam: ScalarAdam::new(n * POSE_SCALARS),
+            health: Health::default(),
             pose_params: vec![0.0; n * POSE_SCALARS],
             pose_flat_grads: vec![0.0; n * POSE_SCALARS],
             pose_lr,
@@ -506,12 +524,16 @@ impl<'a, F: FitField> Fitter<'a, F> {
             None
         };
         self.geometric_losses(&mut log);
+        self.flatten_pose_grads(render_grad.as_ref());
+        let finite = log.total().is_finite() && self.pose_flat_grads.iter().all(|g| g.is_finite());
+        if !self.health.admit_finite(finite) {
+            return log;
+        }
         if let (true, Some(grad)) = (self.config.tone_in_pose_stage, &render_grad) {
             self.step_tones(grad);
         }
-        self.flatten_pose_grads(render_grad.as_ref());
         let progress = iteration as f32 / self.config.pose_iterations.max(1) as f32;
-        self.apply_pose_step(self.config.lr_final_factor.powf(progress));
+        self.apply_pose_step(self.config.lr_final_factor.powf(progress) * self.health.lr_scale);
         log
     }
 
@@ -614,6 +636,9 @@ impl<'a, F: FitField> Fitter<'a, F> {
         let adapt = self.config.adapt;
         let (loss, grad) = self.photometric(iteration, adapt.codes);
         log.photometric = loss;
+        if !self.health.admit_finite(loss.is_finite()) {
+            return log;
+        }
         if adapt.tone {
             self.step_tones(&grad);
         }
@@ -671,6 +696,38 @@ impl<'a, F: FitField> Fitter<'a, F> {
         }
     }
 
+    /// An error once [`MAX_FAULTS_IN_A_ROW`] steps in a row had non-finite losses or gradients.
+    fn check_health(&self, iteration: usize) -> Result<(), FitError> {
+        let h = self.health;
+        if h.in_a_row < MAX_FAULTS_IN_A_ROW {
+            return Ok(());
+        }
+        Err(FitError(format!(
+            "the fit diverged at iteration {iteration}: {} steps in a row with non-finite losses or \
+             gradients (step size scaled down to {:e})",
+            h.in_a_row, h.lr_scale
+        )))
+    }
+
+    /// Objects whose centre has left the room's box, to report rather than silently keep.
+    fn outside_room(&self) -> Vec<String> {
+        self.scene
+            .objects
+            .iter()
+            .filter(|o| {
+                let c = o.translation;
+                c.cmplt(self.room.min).any() || c.cmpgt(self.room.max).any()
+            })
+            .map(|o| {
+                let c = o.translation;
+                format!(
+                    "object id {} left the room: its centre is at ({:.2}, {:.2}, {:.2}) m",
+                    o.instance_id, c.x, c.y, c.z
+                )
+            })
+            .collect()
+    }
+
     fn empty_log(&self, iteration: usize, stage: Stage) -> IterationLog {
         IterationLog {
             iteration,
@@ -692,6 +749,8 @@ impl<'a, F: FitField> Fitter<'a, F> {
         before: Option<RgbImage>,
         after: Option<RgbImage>,
     ) -> FitResult<F> {
+        let warnings = self.outside_room();
+        let faulty_steps = self.health.faults;
         let scene = self.scene;
         let light = |model: usize, row: u32| scene.models[model].field.light_code(row);
         FitResult {
@@ -710,6 +769,8 @@ impl<'a, F: FitField> Fitter<'a, F> {
             relations: self.relations,
             log,
             timings,
+            faulty_steps,
+            warnings,
             before,
             after,
             scene,

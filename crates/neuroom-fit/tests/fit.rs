@@ -157,6 +157,64 @@ fn previews_and_log_come_back() {
     assert_eq!(back.objects.len(), 2);
 }
 
+/// A panorama of NaN makes every photometric loss non-finite: no step is applied and the fit stops with an
+/// error after the 20th in a row instead of returning NaN poses.
+#[test]
+fn a_nan_panorama_stops_the_fit_with_an_error() {
+    let config = FitConfig {
+        pose_iterations: 40,
+        search: None,
+        ..config()
+    };
+    let mut room = analytic_room(2, 100.0, 64, &config);
+    room.panorama
+        .data
+        .iter_mut()
+        .for_each(|p| *p = [f32::NAN; 3]);
+    let init: Vec<_> = room.objects.iter().map(|o| o.truth.clone()).collect();
+    let err = fit(
+        room.scene.clone(),
+        &room.room,
+        &room.panorama,
+        &room.camera_to_world,
+        &init,
+        &config,
+        &mut |_| {},
+    )
+    .expect_err("a NaN panorama cannot be fitted");
+    assert!(err.0.contains("diverged at iteration 19"), "{}", err.0);
+}
+
+/// An object that starts (and stays) outside the room is reported, not silently kept.
+#[test]
+fn an_object_outside_the_room_is_reported() {
+    let config = FitConfig {
+        pose_iterations: 2,
+        search: None,
+        ..config()
+    };
+    let room = analytic_room(2, 100.0, 64, &config);
+    let mut init: Vec<_> = room.objects.iter().map(|o| o.truth.clone()).collect();
+    init[0].pose.translation.x += 50.0;
+    let result = fit(
+        room.scene.clone(),
+        &room.room,
+        &room.panorama,
+        &room.camera_to_world,
+        &init,
+        &config,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(result.warnings.len(), 1, "{:?}", result.warnings);
+    assert!(
+        result.warnings[0].contains(&format!("object id {} left the room", init[0].id)),
+        "{:?}",
+        result.warnings
+    );
+    assert_eq!(result.faulty_steps, 0);
+}
+
 /// Stage 2: the panorama was taken under another light (every tone changed); with the poses right,
 /// adapting the tone adjusters brings the re-rendering back to the panorama.
 #[test]

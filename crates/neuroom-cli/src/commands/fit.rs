@@ -69,5 +69,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         outputs.before.display(),
         outputs.after.display()
     );
+    if report.faulty_steps > 0 {
+        eprintln!(
+            "warning: {} steps with non-finite losses or gradients were skipped",
+            report.faulty_steps
+        );
+    }
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
     Ok(())
 }
