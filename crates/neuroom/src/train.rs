@@ -61,30 +61,33 @@ pub fn train_room(
     crate::inspect::inspect_room_with(room, &config.env_maps)?;
     let summary = neuroom_train::train_room(room, models, &config, progress)?;
     if summary.manifest.complete {
-        build_locate_database(&summary.dir, progress)?;
+        build_locate_database(&summary.dir, progress);
     }
     Ok(summary)
 }
 
 /// Renders the camera-localization database of `neuroom locate` once every model is trained (kept when
-/// it is already there).
-fn build_locate_database(dir: &Path, progress: &dyn TrainProgress) -> anyhow::Result<()> {
+/// it is already there). A room the database cannot cover (e.g. too small for its camera grid) is reported
+/// on the progress line and left to `neuroom locate`, which says why: the models themselves are fine.
+fn build_locate_database(dir: &Path, progress: &dyn TrainProgress) {
     if crate::locate::database_path(dir).exists() {
-        return Ok(());
+        return;
     }
     let start = std::time::Instant::now();
     progress.start("locate database", 0, 0);
-    let db = crate::locate::build_locate_database(
+    let built = crate::locate::build_locate_database(
         dir,
         &neuroom_locate::database::DatabaseConfig::default(),
         &mut |_, _| {},
-    )?;
-    progress.finish(&format!(
-        "{} panoramas of the empty room in {:.0} s",
-        db.entries.len(),
-        start.elapsed().as_secs_f64()
-    ));
-    Ok(())
+    );
+    progress.finish(&match built {
+        Ok(db) => format!(
+            "{} panoramas of the empty room in {:.0} s",
+            db.entries.len(),
+            start.elapsed().as_secs_f64()
+        ),
+        Err(e) => format!("not built: {e:#}"),
+    });
 }
 
 /// One line describing a trained model and its held-out figures.
