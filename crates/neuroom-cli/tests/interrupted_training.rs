@@ -30,15 +30,17 @@ fn weights(out: &Path, model: &str) -> Vec<u8> {
 
 #[test]
 fn a_killed_training_run_resumes_to_the_uninterrupted_models() {
-    let scratch = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!(
-        "interrupted_training_{}",
-        std::process::id()
-    ));
+    let scratch = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("interrupted_training_{}", std::process::id()));
     let _ = fs::remove_dir_all(&scratch);
     let (straight, killed) = (scratch.join("straight"), scratch.join("killed"));
 
     let status = train_command(&straight).output().unwrap();
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
 
     // Kill the second run as soon as its first model (the background) is written, while the object trains.
     let mut child = train_command(&killed)
@@ -65,7 +67,11 @@ fn a_killed_training_run_resumes_to_the_uninterrupted_models() {
     );
 
     let status = train_command(&killed).output().unwrap();
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
     for model in ["background", "objects/box"] {
         assert!(
             weights(&straight, model) == weights(&killed, model),
