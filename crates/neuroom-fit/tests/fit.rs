@@ -3,11 +3,12 @@
 
 use glam::Vec3;
 use neuroom_core::metrics::{ArrangementScore, psnr};
-use neuroom_fit::bench::{CaseReport, PoseNoise, analytic_room, run_case};
+use neuroom_field::AnalyticField;
+use neuroom_fit::bench::{BenchRoom, CaseReport, PoseNoise, analytic_room, run_case};
 use neuroom_fit::probe::Target;
 use neuroom_fit::relations::{Relation, generate_relations};
 use neuroom_fit::surface::Face;
-use neuroom_fit::{FitConfig, fit, render_panorama};
+use neuroom_fit::{FitConfig, FitError, FitResult, ObjectInit, fit, render_panorama};
 use neuroom_render::Tone;
 
 fn config() -> FitConfig {
@@ -18,6 +19,23 @@ fn config() -> FitConfig {
         preview_height: None,
         ..FitConfig::default()
     }
+}
+
+/// The fit of `room`'s panorama from `init`, without progress.
+fn fit_room(
+    room: &BenchRoom<AnalyticField>,
+    init: &[ObjectInit],
+    config: &FitConfig,
+) -> Result<FitResult<AnalyticField>, FitError> {
+    fit(
+        room.scene.clone(),
+        &room.room,
+        &room.panorama,
+        &room.camera_to_world,
+        init,
+        config,
+        &mut |_| {},
+    )
 }
 
 fn summary(s: &ArrangementScore) -> String {
@@ -136,16 +154,7 @@ fn previews_and_log_come_back() {
     };
     let room = analytic_room(2, 100.0, 64, &config);
     let init: Vec<_> = room.objects.iter().map(|o| o.truth.clone()).collect();
-    let result = fit(
-        room.scene.clone(),
-        &room.room,
-        &room.panorama,
-        &room.camera_to_world,
-        &init,
-        &config,
-        &mut |_| {},
-    )
-    .unwrap();
+    let result = fit_room(&room, &init, &config).unwrap();
     assert_eq!(result.log.len(), 5);
     assert_eq!(result.before.as_ref().map(|b| b.width), Some(32));
     assert!(result.after.is_some());
@@ -172,16 +181,7 @@ fn a_nan_panorama_stops_the_fit_with_an_error() {
         .iter_mut()
         .for_each(|p| *p = [f32::NAN; 3]);
     let init: Vec<_> = room.objects.iter().map(|o| o.truth.clone()).collect();
-    let err = fit(
-        room.scene.clone(),
-        &room.room,
-        &room.panorama,
-        &room.camera_to_world,
-        &init,
-        &config,
-        &mut |_| {},
-    )
-    .expect_err("a NaN panorama cannot be fitted");
+    let err = fit_room(&room, &init, &config).expect_err("a NaN panorama cannot be fitted");
     assert!(err.0.contains("diverged at iteration 19"), "{}", err.0);
 }
 
@@ -196,16 +196,7 @@ fn an_object_outside_the_room_is_reported() {
     let room = analytic_room(2, 100.0, 64, &config);
     let mut init: Vec<_> = room.objects.iter().map(|o| o.truth.clone()).collect();
     init[0].pose.translation.x += 50.0;
-    let result = fit(
-        room.scene.clone(),
-        &room.room,
-        &room.panorama,
-        &room.camera_to_world,
-        &init,
-        &config,
-        &mut |_| {},
-    )
-    .unwrap();
+    let result = fit_room(&room, &init, &config).unwrap();
     assert_eq!(result.warnings.len(), 1, "{:?}", result.warnings);
     assert!(
         result.warnings[0].contains(&format!("object id {} left the room", init[0].id)),
