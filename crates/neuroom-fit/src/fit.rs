@@ -12,7 +12,7 @@ use crate::photometric::photometric_loss;
 use crate::pose_grad::{self, PoseGrad};
 use crate::probe::Probe;
 use crate::relations::{Hint, Relation, RoomBox, generate_relations};
-use crate::sampling::{PixelSampler, dilate, object_mask};
+use crate::sampling::{PixelSampler, box_entry, dilate, object_mask};
 use crate::search::search_poses;
 use crate::surface::{SurfacePoints, sample_surface};
 use crate::violation::violation_loss;
@@ -728,6 +728,39 @@ impl<'a, F: FitField> Fitter<'a, F> {
             .collect()
     }
 
+    /// Objects the camera cannot see: every surface point is behind another object's box, or the
+    /// object lies outside the room. Their photometric loss has no pixels, so their poses are unsupported.
+    fn unseen(&self) -> Vec<String> {
+        let origin = self.camera_to_world.translation.as_vec3();
+        let objects = &self.scene.objects;
+        let visible = |k: usize, p: Vec3| {
+            let (d, dist) = ((p - origin).normalize_or_zero(), (p - origin).length());
+            let inside = p.cmpge(self.room.min).all() && p.cmple(self.room.max).all();
+            inside
+                && objects.iter().enumerate().all(|(j, other)| {
+                    j == k || box_entry(other, origin, d, 0.0).is_none_or(|t| t >= dist)
+                })
+        };
+        objects
+            .iter()
+            .enumerate()
+            .filter(|(k, o)| {
+                let rotation = o.rotation();
+                !self.surfaces[*k]
+                    .points
+                    .iter()
+                    .any(|q| visible(*k, o.translation + rotation * *q))
+            })
+            .map(|(_, o)| {
+                format!(
+                    "object id {} has no pixels in the panorama (hidden behind other objects or \
+                     outside the room)",
+                    o.instance_id
+                )
+            })
+            .collect()
+    }
+
     fn empty_log(&self, iteration: usize, stage: Stage) -> IterationLog {
         IterationLog {
             iteration,
@@ -749,7 +782,8 @@ impl<'a, F: FitField> Fitter<'a, F> {
         before: Option<RgbImage>,
         after: Option<RgbImage>,
     ) -> FitResult<F> {
-        let warnings = self.outside_room();
+        let mut warnings = self.outside_room();
+        warnings.extend(self.unseen());
         let faulty_steps = self.health.faults;
         let scene = self.scene;
         let light = |model: usize, row: u32| scene.models[model].field.light_code(row);

@@ -41,6 +41,12 @@ impl Region {
 
 /// Whether a world ray from `origin` along `dir` meets the box of `o` enlarged by `padding`.
 fn hits_box(o: &SceneObject, origin: Vec3, dir: Vec3, padding: f32) -> bool {
+    box_entry(o, origin, dir, padding).is_some()
+}
+
+/// Where a world ray from `origin` along unit `dir` enters the box of `o` enlarged by `padding` (0 when it
+/// starts inside), if it meets it.
+pub fn box_entry(o: &SceneObject, origin: Vec3, dir: Vec3, padding: f32) -> Option<f32> {
     let rt = o.rotation().transpose();
     let (p, d) = (rt * (origin - o.translation), rt * dir);
     let h = o.half_extents + Vec3::splat(padding);
@@ -51,7 +57,7 @@ fn hits_box(o: &SceneObject, origin: Vec3, dir: Vec3, padding: f32) -> bool {
         t0 = t0.max(ta.min(tb));
         t1 = t1.min(ta.max(tb));
     }
-    t0 <= t1
+    (t0 <= t1).then_some(t0)
 }
 
 /// The object mask of `objects` seen from `camera_to_world`: a pixel is set when its ray meets a box.
