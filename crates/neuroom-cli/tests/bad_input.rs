@@ -206,6 +206,10 @@ fn fit_names_a_bad_panorama_and_a_bad_initial_arrangement() {
         (corpus("truncated.png"), "cannot decode PNG"),
         (corpus("gen_bomb.jpg"), "truncated or corrupt"),
         (dir.join("absent.png"), "cannot read"),
+        (
+            tiny_room().join("captures/box/images/0.png"),
+            "twice as wide as high",
+        ),
     ] {
         let out = neuroom(&[
             Path::new("fit"),

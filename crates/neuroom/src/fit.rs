@@ -36,6 +36,13 @@ pub fn fit_panorama(
     progress: &mut dyn FnMut(&IterationLog),
 ) -> anyhow::Result<(FitOutputs, FitReport)> {
     let image = read_rgb(panorama)?.image;
+    anyhow::ensure!(
+        image.width == 2 * image.height,
+        "{}: a panorama must be twice as wide as high (equirectangular), this one is {}×{}",
+        panorama.display(),
+        image.width,
+        image.height
+    );
     let start = read_arrangement(init)?;
     let hints = match room {
         Some(r) => room_hints(r)?,
