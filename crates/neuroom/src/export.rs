@@ -8,9 +8,7 @@ use anyhow::Context as _;
 use glam::{DVec3, Vec3};
 use neuroom_core::formats::{Arrangement, atomic_write, read_arrangement, read_rgb, read_room};
 use neuroom_core::image::{Image, RgbImage};
-use neuroom_core::metrics::{
-    ArrangementScore, GtObject, PredictedObject, evaluate_arrangement, psnr, ssim,
-};
+use neuroom_core::metrics::{ArrangementScore, psnr, ssim};
 use neuroom_core::obb::OrientedBox;
 use neuroom_export::mesh::{Geometry, MeshDetail, scene_meshes};
 use neuroom_export::report::{Figure, Report, Section, Table};
@@ -445,27 +443,10 @@ fn score(
     sizes: &[(u16, DVec3)],
     names: &[(u16, String)],
 ) -> ArrangementScore {
-    let gt: Vec<GtObject> = truth
-        .objects
-        .iter()
-        .filter_map(|o| {
-            Some(GtObject {
-                id: o.id,
-                model: lookup(names, o.id).unwrap_or_else(|| format!("id {}", o.id)),
-                size: lookup(sizes, o.id)?,
-                object_to_world: o.object_to_world,
-            })
-        })
-        .collect();
-    let predicted: Vec<PredictedObject> = solved
-        .objects
-        .iter()
-        .map(|o| PredictedObject {
-            id: o.id,
-            object_to_world: o.object_to_world,
-        })
-        .collect();
-    evaluate_arrangement(&gt, &predicted)
+    crate::score::score_arrangement(truth, solved, |id| {
+        let model = lookup(names, id).unwrap_or_else(|| format!("id {id}"));
+        Some((model, lookup(sizes, id)?))
+    })
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@ pub mod inspect;
 pub mod locate;
 pub mod relight;
 pub mod scene;
+pub mod score;
 pub mod synth;
 pub mod tour;
 pub mod train;

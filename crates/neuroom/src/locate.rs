@@ -9,7 +9,7 @@ use anyhow::Context as _;
 use glam::Vec3;
 use neuroom_core::formats::{self, ArrangedObject, Arrangement, Room, read_rgb, read_room};
 use neuroom_core::image::RgbImage;
-use neuroom_core::metrics::{ArrangementScore, GtObject, PredictedObject, evaluate_arrangement};
+use neuroom_core::metrics::ArrangementScore;
 use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
@@ -427,28 +427,10 @@ pub fn bench_locate(
 
 /// FORMAT.md's object metrics of `predicted` against `truth` (instances of one capture interchangeable).
 fn score_objects(room: &Room, truth: &Arrangement, predicted: &Arrangement) -> ArrangementScore {
-    let gt: Vec<GtObject> = truth
-        .objects
-        .iter()
-        .filter_map(|o| {
-            let r = room.objects.iter().find(|r| r.id == o.id)?;
-            Some(GtObject {
-                id: o.id,
-                model: r.capture.to_string_lossy().into_owned(),
-                size: r.size,
-                object_to_world: o.object_to_world,
-            })
-        })
-        .collect();
-    let pred: Vec<PredictedObject> = predicted
-        .objects
-        .iter()
-        .map(|o| PredictedObject {
-            id: o.id,
-            object_to_world: o.object_to_world,
-        })
-        .collect();
-    evaluate_arrangement(&gt, &pred)
+    crate::score::score_arrangement(truth, predicted, |id| {
+        let r = room.objects.iter().find(|r| r.id == id)?;
+        Some((r.capture.to_string_lossy().into_owned(), r.size))
+    })
 }
 
 fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {
