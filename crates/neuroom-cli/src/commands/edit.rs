@@ -3,10 +3,7 @@
 
 use std::path::PathBuf;
 
-use glam::DVec3;
-use neuroom::view::ViewCamera;
-
-use super::render::parse_point;
+use super::pinhole::PinholeArgs;
 
 /// Edit an arrangement: move, rotate, remove objects, insert objects of this room's models or of
 /// another room's model folder. Moved, turned and inserted objects are dropped along −z onto the floor
@@ -39,15 +36,8 @@ pub struct Args {
     /// Render width (panorama height is half of it).
     #[arg(long, default_value_t = 512)]
     width: u32,
-    /// Render a pinhole view from here (`x,y,z`) instead of the panorama.
-    #[arg(long, value_parser = parse_point, requires = "look_at")]
-    eye: Option<DVec3>,
-    /// Point the pinhole view looks at.
-    #[arg(long, value_parser = parse_point, requires = "eye")]
-    look_at: Option<DVec3>,
-    /// Pinhole horizontal field of view, degrees.
-    #[arg(long, default_value_t = 70.0)]
-    fov: f64,
+    #[command(flatten)]
+    pinhole: PinholeArgs,
     /// Do not render the result.
     #[arg(long)]
     no_render: bool,
@@ -55,7 +45,7 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let camera = ViewCamera::from_options(args.eye, args.look_at, args.width, None, args.fov);
+    let camera = args.pinhole.camera(args.width, None);
     let camera = (!args.no_render).then_some(&camera);
     let out = neuroom::edit::edit_arrangement(
         &args.models,

@@ -7,6 +7,7 @@ pub mod export;
 pub mod fit;
 pub mod info;
 pub mod locate;
+mod pinhole;
 pub mod relight;
 pub mod render;
 pub mod synth;

@@ -2,12 +2,10 @@
 
 use std::path::PathBuf;
 
-use glam::DVec3;
 use neuroom::relight::{Blend, LightSpec};
 use neuroom::tour::SequenceOutputs;
-use neuroom::view::ViewCamera;
 
-use super::render::parse_point;
+use super::pinhole::PinholeArgs;
 use crate::progress::StageBars;
 
 /// Render a sequence blending two lightings of a solved room: light codes and tone adjusters are
@@ -46,20 +44,13 @@ pub struct Args {
     /// Image width (panorama height is half of it).
     #[arg(long, default_value_t = 512)]
     width: u32,
-    /// Pinhole camera centre `x,y,z`; without it, the arrangement's panorama camera.
-    #[arg(long, value_parser = parse_point, requires = "look_at")]
-    eye: Option<DVec3>,
-    /// Point the pinhole camera looks at.
-    #[arg(long, value_parser = parse_point, requires = "eye")]
-    look_at: Option<DVec3>,
-    /// Pinhole horizontal field of view, degrees.
-    #[arg(long, default_value_t = 70.0)]
-    fov: f64,
+    #[command(flatten)]
+    pinhole: PinholeArgs,
 }
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let camera = ViewCamera::from_options(args.eye, args.look_at, args.width, None, args.fov);
+    let camera = args.pinhole.camera(args.width, None);
     let outputs = SequenceOutputs::beside(&args.out, args.frames_dir.as_deref(), args.fps);
     let blend = Blend {
         from: args.from,

@@ -3,10 +3,9 @@
 
 use std::path::PathBuf;
 
-use glam::DVec3;
 use neuroom::tour::{Generated, Lens, SequenceOutputs, TourPath};
-use neuroom::view::ViewCamera;
 
+use super::pinhole::PinholeArgs;
 use crate::progress::StageBars;
 
 /// Render a room's trained models placed by an arrangement, as a panorama from its camera or from any
@@ -43,15 +42,8 @@ pub struct Args {
     /// Pinhole image height (default: 3/4 of the width).
     #[arg(long)]
     height: Option<u32>,
-    /// Pinhole camera centre `x,y,z` in metres; without it, the panorama camera of the arrangement.
-    #[arg(long, value_parser = parse_point, requires = "look_at")]
-    eye: Option<DVec3>,
-    /// Point the pinhole camera looks at, `x,y,z` in metres.
-    #[arg(long, value_parser = parse_point, requires = "eye")]
-    look_at: Option<DVec3>,
-    /// Pinhole horizontal field of view, degrees.
-    #[arg(long, default_value_t = 70.0)]
-    fov: f64,
+    #[command(flatten)]
+    pinhole: PinholeArgs,
     /// Tour along the camera poses of this JSON file; `-o` is then the GIF.
     #[arg(long, conflicts_with_all = ["orbit", "walk", "eye"])]
     path: Option<PathBuf>,
@@ -72,31 +64,12 @@ pub struct Args {
     fps: f64,
 }
 
-/// Parses `x,y,z`.
-pub(crate) fn parse_point(s: &str) -> Result<DVec3, String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| {
-            x.trim()
-                .parse::<f64>()
-                .map_err(|_| format!("`{x}` is not a number"))
-        })
-        .collect::<Result<_, _>>()?;
-    match v.as_slice() {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(*x, *y, *z)),
-        _ => Err(format!(
-            "expected three finite numbers `x,y,z`, found `{s}`"
-        )),
-    }
-}
-
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = tour_path(&args) {
         return run_tour(&args, &path);
     }
-    let camera =
-        ViewCamera::from_options(args.eye, args.look_at, args.width, args.height, args.fov);
+    let camera = args.pinhole.camera(args.width, args.height);
     let view = neuroom::view::render_arrangement(&args.models, &args.arrangement, &camera)?;
     neuroom::view::write_view(
         &view,
@@ -132,7 +105,7 @@ fn run_tour(args: &Args, path: &TourPath) -> anyhow::Result<()> {
         Lens::Pinhole {
             width: args.width,
             height: args.height.unwrap_or(args.width * 3 / 4),
-            fov_deg: args.fov,
+            fov_deg: args.pinhole.fov,
         }
     };
     let outputs = SequenceOutputs::beside(&args.out, args.frames.as_deref(), args.fps);
