@@ -315,7 +315,8 @@ impl<'a> Trainer<'a> {
     /// One optimisation step; returns its loss.
     pub fn step(&mut self) -> LossParts {
         let start = Instant::now();
-        let cpu_start = process_cpu_seconds();
+        // Only the CPU clock reads /proc, once before and once after the step.
+        let cpu_start = (self.config.budget_clock == BudgetClock::Cpu).then(process_cpu_seconds);
         let mut lap = Lap(Instant::now());
         let levels = self.config.start_levels
             + (self.state.step / self.config.steps_per_level.max(1)) as usize;
@@ -346,11 +347,9 @@ impl<'a> Trainer<'a> {
         prof.steps += 1;
         self.state.profile = prof;
         self.state.step += 1;
-        self.state.elapsed_s += match self.config.budget_clock {
-            BudgetClock::Wall => start.elapsed().as_secs_f64(),
-            BudgetClock::Cpu => {
-                (process_cpu_seconds() - cpu_start) / rayon::current_num_threads() as f64
-            }
+        self.state.elapsed_s += match cpu_start {
+            None => start.elapsed().as_secs_f64(),
+            Some(cpu) => (process_cpu_seconds() - cpu) / rayon::current_num_threads() as f64,
         };
         self.state.last = parts;
         self.calibrate();
