@@ -22,6 +22,8 @@ pub struct TrainOptions {
     pub threads: usize,
     /// Seed of sampling and initialisation.
     pub seed: Option<u64>,
+    /// Count the budgets in CPU seconds per worker thread (see [`neuroom_train::BudgetClock::Cpu`]).
+    pub cpu_clock: bool,
 }
 
 impl TrainOptions {
@@ -44,6 +46,9 @@ impl TrainOptions {
             c.seed = seed;
         }
         c.threads = self.threads;
+        if self.cpu_clock {
+            c.budget_clock = neuroom_train::BudgetClock::Cpu;
+        }
         c
     }
 }

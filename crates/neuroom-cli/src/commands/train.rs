@@ -33,6 +33,10 @@ pub struct Args {
     /// Seed of sampling and initialisation.
     #[arg(long)]
     seed: Option<u64>,
+    /// Count the time budgets in CPU seconds per worker thread instead of wall-clock seconds, so that
+    /// other programs on a busy machine do not shrink the training.
+    #[arg(long)]
+    cpu_clock: bool,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -47,6 +51,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         background_seconds: args.background_seconds,
         threads: args.threads,
         seed: args.seed,
+        cpu_clock: args.cpu_clock,
     };
     let summary =
         neuroom::train::train_room(&args.room, &args.out, &options, &TrainBar::default())?;
