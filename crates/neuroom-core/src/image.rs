@@ -57,6 +57,32 @@ impl<T: Clone> Image<T> {
     }
 }
 
+impl Image<[f32; 3]> {
+    /// The image averaged down by an integer factor to `width × height`: how a render at a lower
+    /// resolution is compared with a full-size photo. `None` unless the size is an exact multiple.
+    pub fn box_downsample(&self, width: u32, height: u32) -> Option<Self> {
+        let f = self.width.checked_div(width)?;
+        if f == 0 || self.width != f * width || self.height != f * height {
+            return None;
+        }
+        let inv = 1.0 / (f * f) as f32;
+        let mut out = Image::filled(width, height, [0.0f32; 3]);
+        for v in 0..height {
+            for u in 0..width {
+                let mut acc = [0.0f32; 3];
+                for dv in 0..f {
+                    for du in 0..f {
+                        let c = self.get(u * f + du, v * f + dv);
+                        (0..3).for_each(|k| acc[k] += c[k]);
+                    }
+                }
+                out.set(u, v, acc.map(|a| a * inv));
+            }
+        }
+        Some(out)
+    }
+}
+
 /// sRGB transfer function: encoded value in [0, 1] to linear light.
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {
@@ -94,5 +120,16 @@ mod tests {
         img.set(2, 1, 7);
         assert_eq!(img.data[5], 7);
         assert_eq!(*img.get(2, 1), 7);
+    }
+
+    #[test]
+    fn box_downsample_averages_integer_blocks() {
+        let mut img = Image::filled(4, 2, [0.0f32; 3]);
+        img.set(0, 0, [1.0; 3]);
+        let small = img.box_downsample(2, 1).unwrap();
+        assert_eq!(*small.get(0, 0), [0.25; 3]);
+        assert_eq!(*small.get(1, 0), [0.0; 3]);
+        assert!(img.box_downsample(3, 1).is_none());
+        assert!(img.box_downsample(0, 0).is_none());
     }
 }

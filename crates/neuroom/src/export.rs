@@ -1,22 +1,26 @@
 //! `neuroom export`: a solved room as a glTF 2.0 binary (meshes from the SDFs, vertex colours under the
 //! solved lighting, placed by the solved poses, the camera) and as an offline HTML report (the input
-//! panorama, renders of the solved scene, a top-down map against the ground truth, the metrics).
+//! panorama, renders of the solved scene, a top-down map against the ground truth, the metrics) and, with
+//! the `rerun` feature, as a Rerun recording (`export/rrd.rs`).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use neuroom_core::formats::{Arrangement, atomic_write, read_arrangement, read_rgb, read_room};
-use neuroom_core::image::{Image, RgbImage};
+
 use neuroom_core::metrics::{ArrangementScore, psnr, ssim};
 use neuroom_core::obb::OrientedBox;
-use neuroom_export::mesh::{Geometry, MeshDetail, scene_meshes};
+use neuroom_export::mesh::{Geometry, MeshDetail, SceneMeshes, scene_meshes};
 use neuroom_export::report::{Figure, Report, Section, Table};
 use neuroom_export::room_gltf::{ExportCamera, room_glb};
 use neuroom_export::topdown::{MapBox, TopDown};
 
 use crate::tour::{Generated, Lens, generate, room_box};
 use crate::view::{SolvedScene, ViewCamera, render_view, solved_scene};
+
+#[cfg(feature = "rerun")]
+mod rrd;
 
 /// What to export and how.
 #[derive(Clone, Debug)]
@@ -25,13 +29,15 @@ pub struct ExportOptions {
     pub gltf: Option<PathBuf>,
     /// Write the HTML report here.
     pub report: Option<PathBuf>,
+    /// Write the Rerun recording (.rrd) here; needs the `rerun` feature.
+    pub rrd: Option<PathBuf>,
     /// Ground-truth arrangement to compare with (report).
     pub truth: Option<PathBuf>,
     /// The room folder (object sizes for boxes and metrics); found beside the ground truth otherwise.
     pub room: Option<PathBuf>,
     /// The input panorama; found beside the arrangement or the ground truth otherwise.
     pub panorama: Option<PathBuf>,
-    /// Mesh resolution (glTF).
+    /// Mesh resolution (glTF and Rerun).
     pub detail: MeshDetail,
     /// Width of the report's panorama render.
     pub render_width: u32,
@@ -44,6 +50,7 @@ impl Default for ExportOptions {
         Self {
             gltf: None,
             report: None,
+            rrd: None,
             truth: None,
             room: None,
             panorama: None,
@@ -61,6 +68,8 @@ pub struct ExportSummary {
     pub gltf: Option<(PathBuf, usize, usize)>,
     /// The report.
     pub report: Option<PathBuf>,
+    /// The Rerun recording.
+    pub rrd: Option<PathBuf>,
     /// The scores against the ground truth, when given.
     pub score: Option<ArrangementScore>,
     /// PSNR (dB) and SSIM of the solved panorama render against the input, when both are known.
@@ -75,12 +84,25 @@ pub fn export(
     options: &ExportOptions,
     progress: &mut dyn FnMut(&str),
 ) -> anyhow::Result<ExportSummary> {
+    anyhow::ensure!(
+        options.rrd.is_none() || cfg!(feature = "rerun"),
+        "this neuroom was built without Rerun support: rebuild it with `--features rerun` to write .rrd files"
+    );
     progress("placing the models");
     let scene = solved_scene(models, arrangement)?;
     let mut summary = ExportSummary::default();
-    if let Some(path) = &options.gltf {
+    let meshes = (options.gltf.is_some() || options.rrd.is_some()).then(|| {
         progress("extracting coloured meshes");
-        summary.gltf = Some(write_gltf(&scene, path, &options.detail)?);
+        scene_meshes(&scene.lit.scene, &object_names(&scene), &options.detail)
+    });
+    if let (Some(path), Some(meshes)) = (&options.gltf, &meshes) {
+        summary.gltf = Some(write_gltf(&scene, meshes, path)?);
+    }
+    #[cfg(feature = "rerun")]
+    if let (Some(path), Some(meshes)) = (&options.rrd, &meshes) {
+        progress("recording for Rerun");
+        rrd::write_rrd(&scene, meshes, arrangement, options, path)?;
+        summary.rrd = Some(path.clone());
     }
     if let Some(path) = &options.report {
         write_report(
@@ -97,21 +119,24 @@ pub fn export(
     Ok(summary)
 }
 
-/// Writes the glTF binary; returns its path, vertex and triangle counts.
-fn write_gltf(
-    scene: &SolvedScene,
-    path: &Path,
-    detail: &MeshDetail,
-) -> anyhow::Result<(PathBuf, usize, usize)> {
-    let names: Vec<String> = scene
+/// The arrangement's object names, in the scene's order: the names of the mesh layers.
+fn object_names(scene: &SolvedScene) -> Vec<String> {
+    scene
         .arrangement
         .objects
         .iter()
         .map(|o| o.name.clone())
-        .collect();
-    let meshes = scene_meshes(&scene.lit.scene, &names, detail);
+        .collect()
+}
+
+/// Writes the glTF binary of `meshes`; returns its path, vertex and triangle counts.
+fn write_gltf(
+    scene: &SolvedScene,
+    meshes: &SceneMeshes,
+    path: &Path,
+) -> anyhow::Result<(PathBuf, usize, usize)> {
     let camera = ExportCamera::from_panorama(scene.arrangement.camera_to_world);
-    atomic_write(path, &room_glb(&meshes, &camera))?;
+    atomic_write(path, &room_glb(meshes, &camera))?;
     let count = |f: &dyn Fn(&Geometry) -> usize| {
         meshes
             .layers
@@ -195,28 +220,6 @@ fn model_names(scene: &SolvedScene, models: &Path) -> Vec<(u16, String)> {
 
 fn lookup<T: Clone>(table: &[(u16, T)], id: u16) -> Option<T> {
     table.iter().find(|(i, _)| *i == id).map(|(_, v)| v.clone())
-}
-
-/// Averages `image` down by an integer factor to `width × height`, when the sizes allow it.
-fn box_downsample(image: &RgbImage, width: u32, height: u32) -> Option<RgbImage> {
-    let f = image.width / width;
-    if f == 0 || image.width != f * width || image.height != f * height {
-        return None;
-    }
-    let mut out = Image::filled(width, height, [0.0f32; 3]);
-    let inv = 1.0 / (f * f) as f32;
-    for v in 0..height {
-        for u in 0..width {
-            let mut acc = Vec3::ZERO;
-            for dv in 0..f {
-                for du in 0..f {
-                    acc += Vec3::from(*image.get(u * f + du, v * f + dv));
-                }
-            }
-            out.set(u, v, (acc * inv).to_array());
-        }
-    }
-    Some(out)
 }
 
 /// An image file as a figure, embedded as it is when PNG or JPEG.
@@ -353,7 +356,7 @@ fn write_report(
     if let Some(p) = find_panorama(options, arrangement_path, solved, truth.as_ref()) {
         figures.push(file_figure(&p, format!("input panorama {}", p.display()))?);
         let input = read_rgb(&p)?.image;
-        if let Some(small) = box_downsample(&input, render.width, render.height) {
+        if let Some(small) = input.box_downsample(render.width, render.height) {
             summary.image_agreement = Some((psnr(&small, &render), ssim(&small, &render)));
         }
     }
@@ -453,6 +456,7 @@ fn score(
 mod tests {
     use super::*;
     use neuroom_core::formats::{write_arrangement, write_rgb};
+    use neuroom_core::image::Image;
     use neuroom_export::testing::{tiny_arrangement, write_tiny_models};
 
     #[test]
@@ -514,14 +518,5 @@ mod tests {
         );
         assert!(html.contains("<svg") && html.contains(r#"class="truth""#));
         assert!(html.contains("ball_1 (1)"));
-    }
-
-    #[test]
-    fn box_downsample_averages_integer_blocks() {
-        let mut img = Image::filled(4, 2, [0.0f32; 3]);
-        img.set(0, 0, [1.0; 3]);
-        let small = box_downsample(&img, 2, 1).unwrap();
-        assert_eq!(*small.get(0, 0), [0.25; 3]);
-        assert!(box_downsample(&img, 3, 1).is_none());
     }
 }

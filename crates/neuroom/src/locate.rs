@@ -414,7 +414,7 @@ pub fn bench_locate(
                 truth.camera_to_world.rotation,
                 arrangement.camera_to_world.rotation,
             ),
-            objects: score_objects(&ctx.room, &truth, &arrangement),
+            objects: crate::score::score_in_room(&ctx.room, &truth, &arrangement),
             seconds,
             located,
         };
@@ -423,14 +423,6 @@ pub fn bench_locate(
     }
     let mean = mean_scores(&scores);
     Ok((scores, mean))
-}
-
-/// FORMAT.md's object metrics of `predicted` against `truth` (instances of one capture interchangeable).
-fn score_objects(room: &Room, truth: &Arrangement, predicted: &Arrangement) -> ArrangementScore {
-    crate::score::score_arrangement(truth, predicted, |id| {
-        let r = room.objects.iter().find(|r| r.id == id)?;
-        Some((r.capture.to_string_lossy().into_owned(), r.size))
-    })
 }
 
 fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {

@@ -2,7 +2,7 @@
 //! benchmark and `export`'s report.
 
 use glam::DVec3;
-use neuroom_core::formats::Arrangement;
+use neuroom_core::formats::{Arrangement, Room};
 use neuroom_core::metrics::{ArrangementScore, GtObject, PredictedObject, evaluate_arrangement};
 
 /// Scores `predicted` against `truth`. `describe(id)` gives each true object's model (instances of one model
@@ -34,4 +34,17 @@ pub fn score_arrangement(
         })
         .collect();
     evaluate_arrangement(&gt, &pred)
+}
+
+/// Scores `predicted` against `truth` with the object sizes of `room` (room.json); instances of one
+/// capture are interchangeable.
+pub fn score_in_room(
+    room: &Room,
+    truth: &Arrangement,
+    predicted: &Arrangement,
+) -> ArrangementScore {
+    score_arrangement(truth, predicted, |id| {
+        let r = room.objects.iter().find(|r| r.id == id)?;
+        Some((r.capture.to_string_lossy().into_owned(), r.size))
+    })
 }
