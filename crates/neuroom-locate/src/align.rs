@@ -2,7 +2,9 @@
 //! known camera): the keyframe's pixels become world points, which are projected into the query at the
 //! camera being solved, and the difference of illumination-robust features ([`FeatureMap`]) is minimised
 //! by Gauss–Newton with Levenberg–Marquardt damping. A Cauchy weight per point discounts what the empty
-//! room cannot explain (objects, highlights, changed shadows). Coarse to fine over blur scales.
+//! room cannot explain (objects, highlights, changed shadows). Keyframe pixels without a surface or on
+//! surfaces facing down (the ceiling) are left out, and the features are blurred around them by
+//! normalised convolution, so neither makes edges. Coarse to fine over blur scales.
 //!
 //! The camera is updated on the right, `camera_to_world ← camera_to_world · exp(δ)`, `δ = (v, ω)` in the
 //! camera frame, so a world point `X` seen at `p = Rᵀ(X − t)` moves to `p − v − ω × p`.
@@ -28,6 +30,9 @@ pub struct AlignConfig {
     /// Keep the camera's tilt: only position and heading are solved (4 degrees of freedom), for
     /// panoramas from levelled 360° cameras. The start pose's tilt is kept as it is.
     pub upright: bool,
+    /// Keyframe pixels whose surface normal's z is below this (surfaces facing down: the ceiling) are
+    /// left out, for their look depends most on the lights; −1 keeps them all.
+    pub min_normal_z: f64,
 }
 
 impl Default for AlignConfig {
@@ -37,6 +42,7 @@ impl Default for AlignConfig {
             iterations: 20,
             robust_factor: 2.0,
             upright: true,
+            min_normal_z: -0.7,
         }
     }
 }
@@ -78,8 +84,9 @@ pub fn align(
     let mut pose = *init;
     let mut score = 0.0;
     for &sigma in &config.sigmas {
-        let kf = FeatureMap::new(keyframe.rgb, sigma);
-        let points = keyframe_points(keyframe, &kf);
+        let valid = trusted_pixels(keyframe, config.min_normal_z);
+        let kf = FeatureMap::masked(keyframe.rgb, &valid, sigma);
+        let points = keyframe_points(keyframe, &kf, &valid);
         let q = QueryMap::new(&FeatureMap::new(query, sigma));
         pose = solve_scale(&points, &q, pose, config);
         score = correlation(&points, &q, &pose);
@@ -117,12 +124,56 @@ impl QueryMap {
     }
 }
 
-fn keyframe_points(keyframe: &Keyframe, features: &FeatureMap) -> Vec<Point> {
+/// World point of every keyframe pixel (`None` where no surface).
+fn world_points(keyframe: &Keyframe) -> Vec<Option<DVec3>> {
+    let (w, h) = (keyframe.rgb.width as usize, keyframe.rgb.height as usize);
+    let pose = keyframe.camera_to_world;
+    (0..w * h)
+        .map(|i| {
+            let d = direction((i % w) as f64 + 0.5, (i / w) as f64 + 0.5, w, h);
+            (keyframe.depth[i] > 0.0).then(|| pose.transform_point(d * keyframe.depth[i] as f64))
+        })
+        .collect()
+}
+
+/// Pixels whose surface is trusted: seen, and facing down no more than `min_normal_z` allows (the
+/// ceiling: captures rarely see it, so the model knows it least, and its contrast with the walls
+/// follows the lights, even in sign).
+fn trusted_pixels(keyframe: &Keyframe, min_normal_z: f64) -> Vec<bool> {
+    let (w, h) = (keyframe.rgb.width as usize, keyframe.rgb.height as usize);
+    let points = world_points(keyframe);
+    (0..w * h)
+        .map(|i| {
+            let Some(p) = points[i] else {
+                return false;
+            };
+            let (u, v) = (i % w, i / w);
+            if v == 0 || v + 1 >= h {
+                return true;
+            }
+            let at = |uu: usize, vv: usize| points[vv * w + uu % w];
+            let (Some(a), Some(b), Some(c), Some(d)) =
+                (at(u + w - 1, v), at(u + 1, v), at(u, v - 1), at(u, v + 1))
+            else {
+                return true;
+            };
+            let normal = (b - a).cross(d - c).normalize_or_zero();
+            let facing = if normal.dot(keyframe.camera_to_world.translation - p) < 0.0 {
+                -normal
+            } else {
+                normal
+            };
+            facing.z > min_normal_z
+        })
+        .collect()
+}
+
+fn keyframe_points(keyframe: &Keyframe, features: &FeatureMap, valid: &[bool]) -> Vec<Point> {
     let (w, h) = (features.width(), features.height());
     let rows = row_weights(h);
     let pose = keyframe.camera_to_world;
     (0..w * h)
-        .filter(|&i| keyframe.depth[i] > 0.0)
+        .filter(|&i| valid[i])
         .map(|i| {
             let (u, v) = (i % w, i / w);
             let d = direction(u as f64 + 0.5, v as f64 + 0.5, w, h);

@@ -16,8 +16,73 @@ pub struct FeatureMap {
 impl FeatureMap {
     /// Features of `image` blurred by `sigma` pixels before differentiation.
     pub fn new(image: &RgbImage, sigma: f32) -> Self {
-        let (gx, gy) = log_luminance(image).blur(sigma).gradients();
+        Self::from_log(log_luminance(image).blur(sigma))
+    }
+
+    /// Features of a rendering of which only the `valid` pixels are trusted (others saw no surface, or
+    /// a surface whose look depends on the lights): the log luminance is blurred by normalised
+    /// convolution over the valid pixels, so the borders of the others make no edges.
+    pub fn masked(image: &RgbImage, valid: &[bool], sigma: f32) -> Self {
+        let log = log_luminance(image);
+        let mask = Plane {
+            data: valid.iter().map(|d| f32::from(*d)).collect(),
+            ..log.clone()
+        };
+        let weighted = Plane {
+            data: log
+                .data
+                .iter()
+                .zip(&mask.data)
+                .map(|(l, m)| l * m)
+                .collect(),
+            ..log.clone()
+        };
+        let (num, den) = (weighted.blur(sigma), mask.blur(sigma));
+        let mean = weighted.data.iter().sum::<f32>() / mask.data.iter().sum::<f32>().max(1.0);
+        Self::from_log(Plane {
+            data: num
+                .data
+                .iter()
+                .zip(&den.data)
+                .map(|(n, d)| if *d > 1e-3 { n / d } else { mean })
+                .collect(),
+            ..log
+        })
+    }
+
+    fn from_log(blurred: Plane) -> Self {
+        let (gx, gy) = blurred.gradients();
         Self { channels: [gx, gy] }
+    }
+
+    /// Orientation features: the gradient `g` as the doubled-angle vector
+    /// `(gx² − gy², 2 gx gy) / (|g|² + ε²)`, with `ε` = `softness` × the RMS gradient. A lighting change
+    /// can reverse an edge's contrast (a ceiling darker than the walls under one light, brighter under
+    /// another) and scale it; the edge's orientation stays, so these features match panoramas under
+    /// different lights where signed gradients disagree.
+    pub fn orientation(&self, softness: f32) -> FeatureMap {
+        let [gx, gy] = &self.channels;
+        let n = gx.data.len().max(1) as f32;
+        let mean_square = gx
+            .data
+            .iter()
+            .zip(&gy.data)
+            .map(|(a, b)| a * a + b * b)
+            .sum::<f32>()
+            / n;
+        let eps2 = (softness * softness * mean_square).max(1e-12);
+        let channel = |f: &dyn Fn(f32, f32) -> f32| Plane {
+            data: gx
+                .data
+                .iter()
+                .zip(&gy.data)
+                .map(|(x, y)| f(*x, *y) / (x * x + y * y + eps2))
+                .collect(),
+            ..gx.clone()
+        };
+        FeatureMap {
+            channels: [channel(&|x, y| x * x - y * y), channel(&|x, y| 2.0 * x * y)],
+        }
     }
 
     /// Columns.
@@ -95,6 +160,44 @@ mod tests {
         for (x, y) in a.channels[0].data.iter().zip(&b.channels[0].data) {
             assert!((x - y).abs() < 0.15, "{x} vs {y}");
         }
+    }
+
+    #[test]
+    fn orientation_features_ignore_a_reversed_contrast() {
+        let a = FeatureMap::new(&stripes(32, 16, 1.0), 1.0).orientation(0.5);
+        let reversed = stripes(32, 16, 1.0).map(|c| c.map(|x| 1.0 - x));
+        let b = FeatureMap::new(&reversed, 1.0).orientation(0.5);
+        let signed = FeatureMap::new(&reversed, 1.0);
+        let mut differs = false;
+        for i in 0..a.channels[0].data.len() {
+            assert!((a.channels[0].data[i] - b.channels[0].data[i]).abs() < 0.1);
+            assert!((a.channels[1].data[i] - b.channels[1].data[i]).abs() < 0.1);
+            differs |= signed.channels[0].data[i]
+                * FeatureMap::new(&stripes(32, 16, 1.0), 1.0).channels[0].data[i]
+                < -1e-3;
+        }
+        assert!(differs, "the signed gradients should flip");
+    }
+
+    #[test]
+    fn masked_features_make_no_edge_at_a_hole() {
+        let mut image = stripes(32, 16, 1.0).map(|_| [0.5; 3]);
+        let valid: Vec<bool> = (0..32 * 16).map(|i| i % 32 < 20).collect();
+        for (p, ok) in image.data.iter_mut().zip(&valid) {
+            if !ok {
+                *p = [0.0; 3];
+            }
+        }
+        let plain = FeatureMap::new(&image, 1.5);
+        let masked = FeatureMap::masked(&image, &valid, 1.5);
+        let peak = |f: &FeatureMap| {
+            f.channels[0]
+                .data
+                .iter()
+                .fold(0.0f32, |m, x| m.max(x.abs()))
+        };
+        assert!(peak(&plain) > 0.5, "{}", peak(&plain));
+        assert!(peak(&masked) < 1e-3, "{}", peak(&masked));
     }
 
     #[test]

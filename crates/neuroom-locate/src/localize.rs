@@ -1,11 +1,15 @@
 //! Camera localization: database search, then direct alignment through the renderer.
 //!
 //! 1. The query is reduced to the database size; its features are correlated with every database
-//!    panorama over all headings ([`crate::yaw`]); the best (position, heading) pairs are candidates.
+//!    panorama over all headings ([`crate::yaw`]), once with signed gradients and once with their
+//!    orientations (robust to a lighting change); the best (position, heading) pairs of each are
+//!    candidates.
 //! 2. Each candidate is aligned in 6-DoF to its own database panorama (a free keyframe: colour + depth
-//!    are stored), which pulls it from the grid point to near the true camera; the best correlation wins.
-//! 3. The winners are refined against keyframes rendered from the background model at their current
-//!    pose, at a finer resolution, a few rounds (each render removes the parallax error of the last).
+//!    are stored), which pulls it from the grid point to near the true camera; the best correlations
+//!    go on.
+//! 3. Each of them gets one round against a keyframe rendered from the background model at its pose;
+//!    the best correlation is refined a few more rounds at finer resolutions (each render removes the
+//!    parallax error of the last).
 
 use std::time::Instant;
 
@@ -20,7 +24,7 @@ use crate::align::{AlignConfig, Alignment, Keyframe, align};
 use crate::database::Database;
 use crate::features::FeatureMap;
 use crate::plane::downsample_rgb;
-use crate::yaw::best_yaws;
+use crate::yaw::{YawMatch, best_yaws};
 
 /// Settings of [`localize`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -29,9 +33,12 @@ pub struct LocalizeConfig {
     pub yaw_sigma: f32,
     /// Headings kept per database panorama.
     pub yaws_per_entry: usize,
-    /// Candidates aligned against their database panorama.
+    /// Candidates of each heading search (signed gradients, then orientations; a candidate both find
+    /// is aligned once) aligned against their database panorama.
     pub candidates: usize,
-    /// Candidates refined against rendered keyframes.
+    /// Softness of the orientation features ([`FeatureMap::orientation`]).
+    pub orientation_softness: f32,
+    /// Candidates refined against rendered keyframes, the best by their aligned correlation.
     pub finalists: usize,
     /// Alignment against database panoramas.
     pub coarse: AlignConfig,
@@ -49,13 +56,14 @@ impl Default for LocalizeConfig {
         Self {
             yaw_sigma: 1.0,
             yaws_per_entry: 2,
-            candidates: 8,
-            finalists: 2,
+            candidates: 6,
+            orientation_softness: 0.5,
+            finalists: 4,
             coarse: AlignConfig {
                 sigmas: vec![4.0, 2.0, 1.0],
                 ..AlignConfig::default()
             },
-            fine_widths: vec![256, 512],
+            fine_widths: vec![128, 256, 256, 512],
             fine: AlignConfig {
                 sigmas: vec![2.0, 1.0],
                 ..AlignConfig::default()
@@ -105,18 +113,7 @@ pub fn localize<F: Field>(
     }
     let t0 = Instant::now();
     let small = downsample_rgb(panorama, db.width, db.height);
-    let query = FeatureMap::new(&small, config.yaw_sigma).normalized();
-    let refs: Vec<FeatureMap> = db
-        .entries
-        .iter()
-        .map(|e| FeatureMap::new(&e.rgb, config.yaw_sigma).normalized())
-        .collect();
-    let matches = best_yaws(
-        &query,
-        &refs,
-        config.yaws_per_entry,
-        config.candidates.max(1),
-    );
+    let matches = search(db, &small, config);
     let search_score = matches.first().map_or(0.0, |m| m.score);
     let t1 = Instant::now();
     let mut coarse: Vec<Alignment> = matches
@@ -161,6 +158,51 @@ pub fn localize<F: Field>(
             (t3 - t2).as_secs_f64(),
         ],
     })
+}
+
+/// Heading search over the database with two kinds of features: signed log-luminance gradients
+/// (discriminative under the lights of the captures) and their orientations (which survive a lighting
+/// change that reverses edges); the best `config.candidates` of each, without repeats, best first.
+fn search(db: &Database, small: &RgbImage, config: &LocalizeConfig) -> Vec<YawMatch> {
+    let signed = |image: &RgbImage, valid: Option<&[bool]>| match valid {
+        Some(valid) => FeatureMap::masked(image, valid, config.yaw_sigma),
+        None => FeatureMap::new(image, config.yaw_sigma),
+    };
+    let kinds: [&dyn Fn(FeatureMap) -> FeatureMap; 2] = [&|f| f.normalized(), &|f| {
+        f.orientation(config.orientation_softness).normalized()
+    }];
+    let mut found: Vec<YawMatch> = Vec::new();
+    for kind in kinds {
+        let query = kind(signed(small, None));
+        let refs: Vec<FeatureMap> = db
+            .entries
+            .iter()
+            .map(|e| {
+                let valid: Vec<bool> = e.depth.iter().map(|d| *d > 0.0).collect();
+                kind(signed(&e.rgb, Some(&valid)))
+            })
+            .collect();
+        for m in best_yaws(
+            &query,
+            &refs,
+            config.yaws_per_entry,
+            config.candidates.max(1),
+        ) {
+            let repeat = found
+                .iter()
+                .any(|f| f.entry == m.entry && angle_between(f.yaw, m.yaw) < 0.1);
+            if !repeat {
+                found.push(m);
+            }
+        }
+    }
+    found
+}
+
+/// Absolute difference of two angles (radians), in [0, π].
+fn angle_between(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(std::f64::consts::TAU);
+    d.min(std::f64::consts::TAU - d)
 }
 
 /// Rounds of render-and-align, one per keyframe width.

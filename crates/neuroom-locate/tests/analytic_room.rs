@@ -136,6 +136,52 @@ fn the_camera_is_found_despite_an_object_and_a_darker_exposure() {
     assert!(rotation < 0.5, "rotation error {rotation}°");
 }
 
+/// The panorama under other lights: the ceiling much darker than under the database's lights (its
+/// edges with the walls reverse), a light on one side (a smooth gain across headings) and a darker
+/// exposure.
+fn relit_panorama(scene: &Scene<AnalyticField>, camera: &Pose, width: u32) -> RgbImage {
+    let cam = Equirect::new(width, width / 2).unwrap();
+    let (rgb, depth, _) =
+        neuroom_render::render_image(scene, &cam, camera, &RenderConfig::default());
+    let ceiling = (ROOM_CENTRE.z + ROOM_HALF.z) as f64 - 0.05;
+    let (w, h) = (width as usize, width as usize / 2);
+    RgbImage {
+        data: (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+                let ray = neuroom_locate::sphere::direction(x, y, w, h);
+                let world = camera.transform_point(ray * depth.data[i] as f64);
+                let lon = std::f64::consts::PI * (1.0 - 2.0 * x / w as f64);
+                let side = 0.7 + 0.3 * (0.5 + 0.5 * (lon - 1.0).cos());
+                let surface = if world.z > ceiling { 0.3 } else { 1.0 };
+                let gain = (0.85 * side * surface) as f32;
+                rgb.data[i].map(|c| c * gain)
+            })
+            .collect(),
+        ..rgb
+    }
+}
+
+#[test]
+fn the_camera_is_found_under_other_lights() {
+    let empty = scene(None);
+    let db = small_database(&empty);
+    let truth = Pose::from_yaw_translation(-0.9, DVec3::new(2.55, 1.8, 1.45));
+    let object = Pose::from_yaw_translation(0.4, DVec3::new(1.2, 2.2, 0.25));
+    let query = relit_panorama(&scene(Some((0, object))), &truth, 256);
+    let config = LocalizeConfig {
+        candidates: 6,
+        fine_widths: vec![128, 256],
+        ..LocalizeConfig::default()
+    };
+    let found = localize(&empty, &db, &query, &config).unwrap().pose();
+    let position = found.translation.distance(truth.translation);
+    let rotation = neuroom_core::metrics::rotation_error_deg(truth.rotation, found.rotation);
+    // The target.
+    assert!(position < 0.05, "position error {position} m");
+    assert!(rotation < 0.5, "rotation error {rotation}°");
+}
+
 #[test]
 fn the_database_round_trips_and_bad_files_are_named() {
     let empty = scene(None);
