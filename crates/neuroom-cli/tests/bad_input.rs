@@ -236,3 +236,24 @@ fn fit_names_a_bad_panorama_and_a_bad_initial_arrangement() {
     assert_rejects(&out, &bad_init, "duplicate id");
     assert!(!out_json.exists());
 }
+
+/// A `neuroom` built without the `rerun` feature refuses `export --rrd` before reading anything, and
+/// says how to get it.
+#[cfg(not(feature = "rerun"))]
+#[test]
+fn export_rrd_without_the_feature_says_to_rebuild() {
+    let dir = scratch("rrd");
+    let rrd = dir.join("room.rrd");
+    let args = [
+        Path::new("export"),
+        &dir.join("models"),
+        &dir.join("solved.json"),
+        Path::new("--rrd"),
+        &rrd,
+    ];
+    let out = neuroom(&args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
+    assert!(stderr.contains("--features rerun"), "{stderr}");
+    assert!(!rrd.exists());
+}

@@ -1,7 +1,8 @@
 //! What a solved room becomes outside the program: a glTF 2.0 binary of meshes extracted from the SDFs
-//! with vertex colours under the solved lighting, animated GIFs of rendered sequences, and a
-//! self-contained HTML report with a top-down map. It also holds the lighting state ([`lighting`]) that
-//! touring, relighting and exporting share: the fit's solved light codes and tones, trained codes by
+//! with vertex colours under the solved lighting, animated GIFs of rendered sequences, a self-contained
+//! HTML report with a top-down map and, with the `rerun` feature, a Rerun recording (`rrd`) of the same
+//! meshes with the boxes, the camera and the panorama. It also holds the lighting state ([`lighting`])
+//! that touring, relighting and exporting share: the fit's solved light codes and tones, trained codes by
 //! name, and blends between them.
 //!
 //! ```no_run
@@ -20,5 +21,7 @@ pub mod lighting;
 pub mod mesh;
 pub mod report;
 pub mod room_gltf;
+#[cfg(feature = "rerun")]
+pub mod rrd;
 pub mod testing;
 pub mod topdown;

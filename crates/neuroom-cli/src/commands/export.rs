@@ -1,4 +1,4 @@
-//! `neuroom export MODELS ARRANGEMENT --gltf out.glb --report out.html [--truth GT.json]`.
+//! `neuroom export MODELS ARRANGEMENT --gltf out.glb --report out.html --rrd out.rrd [--truth GT.json]`.
 
 use std::path::PathBuf;
 
@@ -9,12 +9,17 @@ use neuroom_export::mesh::MeshDetail;
 /// extracted from their SDFs, vertex colours from the colour network under the solved lighting, objects
 /// placed by their poses, the panorama camera); `--report` writes a self-contained HTML page (the input
 /// panorama, renders of the solved scene, a top-down map against the ground truth, the metrics) that
-/// opens offline in any browser.
+/// opens offline in any browser; `--rrd` writes a Rerun recording (the same meshes, the solved boxes and
+/// the ground truth's, the camera, the input panorama) that opens with `rerun` 0.36 (`pip install
+/// rerun-sdk==0.36.3`). `--rrd` needs a neuroom built with `--features rerun`.
 ///
 /// Examples:
 ///   `neuroom export models/bedroom solved.json --gltf room.glb`
 ///   `neuroom export models/bedroom solved.json --gltf room.glb --report report.html \`
 ///   `    --truth rooms/bedroom/panoramas/bedroom_a0_l0.json`
+///   `cargo build --release -p neuroom-cli --features rerun`
+///   `neuroom export models/bedroom solved.json --rrd room.rrd \`
+///   `    --truth rooms/bedroom/panoramas/bedroom_a0_l0.json && rerun room.rrd`
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct Args {
@@ -23,12 +28,16 @@ pub struct Args {
     /// The solved (or any) arrangement JSON.
     arrangement: PathBuf,
     /// Write the glTF binary (.glb) here.
-    #[arg(long, required_unless_present = "report")]
+    #[arg(long, required_unless_present_any = ["report", "rrd"])]
     gltf: Option<PathBuf>,
     /// Write the HTML report here.
     #[arg(long)]
     report: Option<PathBuf>,
-    /// Ground-truth arrangement: the report draws it and scores the arrangement against it.
+    /// Write a Rerun recording (.rrd) here (needs a build with `--features rerun`).
+    #[arg(long)]
+    rrd: Option<PathBuf>,
+    /// Ground-truth arrangement: the report draws it and scores the arrangement against it; the
+    /// recording shows its boxes.
     #[arg(long)]
     truth: Option<PathBuf>,
     /// The room folder (object sizes); by default the one holding the ground truth's `panoramas/`.
@@ -60,6 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options = ExportOptions {
         gltf: args.gltf,
         report: args.report,
+        rrd: args.rrd,
         truth: args.truth,
         room: args.room,
         panorama: args.panorama,
@@ -96,7 +106,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             100.0 * s.recall
         );
     }
-    if let Some(path) = &summary.report {
+    for path in [&summary.report, &summary.rrd].into_iter().flatten() {
         println!("wrote {}", path.display());
     }
     println!("done in {:.1} s", start.elapsed().as_secs_f64());
