@@ -1,6 +1,7 @@
 //! Room presets: what furniture a room holds (models and the objects instancing them, with their
-//! supports), its size, and how much to render. `tiny` is for tests; `bedroom`, `living` and
-//! `office` are full rooms at sizes sensible for training.
+//! supports), its size, and how much to render. `tiny` is for tests; `studio` is a small room with
+//! lighter captures for quick demonstrations; `bedroom`, `living` and `office` are full rooms at sizes
+//! sensible for training.
 
 use serde::{Deserialize, Serialize};
 
@@ -90,7 +91,7 @@ pub struct Preset {
 }
 
 /// Names accepted by [`Preset::named`].
-pub const PRESET_NAMES: [&str; 4] = ["tiny", "bedroom", "living", "office"];
+pub const PRESET_NAMES: [&str; 5] = ["tiny", "studio", "bedroom", "living", "office"];
 
 fn model(name: &str, kind: Kind) -> ModelSpec {
     ModelSpec {
@@ -163,6 +164,41 @@ impl Preset {
                     panoramas: PanoramaConfig {
                         width: 128,
                         arrangements: 2,
+                        lightings: 2,
+                        quality: Quality { spp: 2, ao_rays: 1 },
+                    },
+                });
+            }
+            "studio" => {
+                return Some(Self {
+                    name: "studio".into(),
+                    room_size: [3.6, 3.2, 2.5],
+                    models: vec![
+                        model("cabinet", Kind::Cabinet),
+                        model("chair", Kind::Chair),
+                        model("vase", Kind::Vase),
+                    ],
+                    objects: vec![
+                        object("cabinet", "cabinet", None),
+                        object("chair", "chair", None),
+                        object("vase", "vase", Some("cabinet")),
+                    ],
+                    object_capture: ObjectCaptureConfig {
+                        views: 32,
+                        resolution: 128,
+                        quality: Quality { spp: 2, ao_rays: 1 },
+                        ..object_capture
+                    },
+                    background: BackgroundConfig {
+                        views: 32,
+                        width: 192,
+                        height: 144,
+                        focal: 156.0,
+                        quality: Quality { spp: 2, ao_rays: 1 },
+                    },
+                    panoramas: PanoramaConfig {
+                        width: 512,
+                        arrangements: 1,
                         lightings: 2,
                         quality: Quality { spp: 2, ao_rays: 1 },
                     },
@@ -291,10 +327,10 @@ mod tests {
             p.validate().unwrap();
             let n = p.objects.len();
             assert!(
-                if name == "tiny" {
-                    n == 2
-                } else {
-                    (4..=8).contains(&n)
+                match name {
+                    "tiny" => n == 2,
+                    "studio" => n == 3,
+                    _ => (4..=8).contains(&n),
                 },
                 "{name}: {n}"
             );

@@ -6,6 +6,7 @@ pub mod bench;
 pub mod bench_fit;
 pub mod demo;
 pub mod edit;
+pub mod eval;
 pub mod export;
 pub mod fit;
 pub mod inspect;

@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod demo;
 pub mod edit;
+pub mod eval;
 pub mod export;
 pub mod fit;
 pub mod info;

@@ -9,7 +9,7 @@ use crate::progress::StageBars;
 /// Example: `neuroom synth --preset bedroom --out rooms/bedroom --seed 7`
 #[derive(clap::Args)]
 pub struct Args {
-    /// Preset: tiny, bedroom, living or office.
+    /// Preset: tiny, studio, bedroom, living or office.
     #[arg(long, default_value = "tiny")]
     preset: String,
     /// Output room folder (created; files in it are replaced).
