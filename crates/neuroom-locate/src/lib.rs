@@ -5,7 +5,8 @@
 //!   the background model over the floor; headings by circular correlation of illumination-robust
 //!   [`features`] ([`yaw`]); direct 6-DoF alignment ([`align`]) against database panoramas, then against
 //!   keyframes rendered at the current estimate.
-//! - Objects: [`evidence`] (where the panorama differs from the empty room rendered at the camera; the
+//! - Objects: [`shading`] (the empty room re-shaded to the panorama's lighting, by a gain that depends on
+//!   the surface normal), [`evidence`] (where the panorama differs from that empty room; the
 //!   [`evidence::Detector`] trait lets a learned detector replace it), [`cloud`] (coloured surface points
 //!   of each model, projected as a cheap render), [`objects`] (pose hypotheses on the floor, on walls and
 //!   on other objects, scored by render-and-compare, taken greedily).
@@ -20,6 +21,7 @@ pub mod features;
 pub mod localize;
 pub mod objects;
 pub mod plane;
+pub mod shading;
 pub mod sphere;
 pub mod yaw;
 

@@ -259,7 +259,7 @@ fn render_tour(
     if !gif.exists() {
         let (frames, lens) = match config.size {
             DemoSize::Quick => (8, (160, 120)),
-            DemoSize::Full => (24, (320, 240)),
+            DemoSize::Full => (16, (256, 192)),
         };
         let lens = Lens::Pinhole {
             width: lens.0,

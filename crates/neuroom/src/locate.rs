@@ -17,6 +17,7 @@ use neuroom_locate::cloud::surface_cloud;
 use neuroom_locate::evidence::{Detector, ResidualDetector, View};
 use neuroom_locate::objects::{Found, ObjectModel, Placement, SearchConfig, find_objects};
 use neuroom_locate::plane::{blur_rgb, downsample_rgb};
+use neuroom_locate::shading::match_shading;
 use neuroom_locate::{
     CameraEstimate, DATABASE_FILE, Database, DatabaseConfig, LocalizeConfig, build_database,
     localize, render_background,
@@ -102,6 +103,9 @@ pub struct LocateConfig {
     pub render: RenderConfig,
     /// Blur of that rendering (pixels): it is point-sampled and the panorama area-averaged.
     pub empty_blur: f32,
+    /// Re-shade that rendering to the panorama's lighting by a gain depending on the surface normal
+    /// ([`match_shading`]) before objects are searched; otherwise only a global per-channel gain.
+    pub match_shading: bool,
     /// Object detection from the difference with the empty room.
     pub detector: ResidualDetector,
     /// Pose hypotheses and their selection.
@@ -116,6 +120,7 @@ impl Default for LocateConfig {
             object_width: 256,
             render: LocalizeConfig::default().render,
             empty_blur: 0.7,
+            match_shading: true,
             detector: ResidualDetector::default(),
             search: SearchConfig::default(),
         }
@@ -236,9 +241,14 @@ pub fn locate_image(
     let pose = camera.pose();
     let w = config.object_width;
     let (empty, empty_depth) = render_background(&ctx.scene, &pose, w, &config.render);
+    let query = downsample_rgb(image, w, w / 2);
+    let mut empty = blur_rgb(&empty, config.empty_blur);
+    if config.match_shading {
+        empty = match_shading(&query, &empty, &empty_depth);
+    }
     let view = View {
-        query: downsample_rgb(image, w, w / 2),
-        empty: blur_rgb(&empty, config.empty_blur),
+        query,
+        empty,
         empty_depth,
     };
     let detections = config.detector.detect(&view);

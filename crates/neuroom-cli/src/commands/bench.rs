@@ -54,6 +54,10 @@ struct LocateArgs {
     room: PathBuf,
     /// The room's model folder (as written by `neuroom train`).
     models: PathBuf,
+    /// Compare objects with the empty room under a global colour gain only, not re-shaded by the
+    /// surface normal (the ablation of that step).
+    #[arg(long)]
+    no_shading: bool,
     /// Print one JSON object per panorama and one for the mean, after the text.
     #[arg(long)]
     json: bool,
@@ -260,7 +264,10 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
 
 /// `neuroom bench locate`: camera, identification and initial-pose scores per panorama and their mean.
 fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
-    let config = neuroom::locate::LocateConfig::default();
+    let config = neuroom::locate::LocateConfig {
+        match_shading: !a.no_shading,
+        ..Default::default()
+    };
     let (_, mean) = neuroom::locate::bench_locate(&a.room, &a.models, &config, &mut |s| {
         println!(
             "{}: camera {:.2} cm {:.3}°, P {:.2} R {:.2}, IoU {:.1} %, ARE {:.1}°, APE {:.1} cm, {:.1} s",
