@@ -164,8 +164,9 @@ pub fn match_shading(query: &RgbImage, empty: &RgbImage, depth: &[f32]) -> RgbIm
 }
 
 /// How much lower the median residual under a normal-dependent gain must be than under one gain per
-/// channel for [`match_shading`] to use it.
-const SHADING_GAIN_NEEDED: f32 = 0.8;
+/// channel for [`match_shading`] to use it. On the bedroom's test panoramas the ratio is 0.22–0.25 under
+/// lights unlike the captures' and 0.41–0.73 under lights like them, where re-shading cost recall.
+const SHADING_GAIN_NEEDED: f32 = 0.35;
 /// … and by at least this much (mean absolute sRGB difference).
 const SHADING_GAIN_FLOOR: f32 = 0.005;
 
