@@ -274,6 +274,17 @@ mod tests {
             .collect()
     }
 
+    /// A `w × h` image whose pixel `i` has colour `colour(t)`, `t` a stripe pattern of period `period`.
+    fn textured(w: usize, h: usize, period: usize, colour: impl Fn(f32) -> [f32; 3]) -> RgbImage {
+        RgbImage {
+            width: w as u32,
+            height: h as u32,
+            data: (0..w * h)
+                .map(|i| colour(0.35 + 0.25 * ((i % period) as f32 * PI / period as f32).sin()))
+                .collect(),
+        }
+    }
+
     #[test]
     fn normals_of_a_box_room_are_its_axes_facing_inwards() {
         let (w, h) = (64, 32);
@@ -305,16 +316,7 @@ mod tests {
         let depth = box_room_depth(w, h);
         let normals = panorama_normals(&depth, w, h);
         // A textured room; the new light is warm from above, dim on one wall.
-        let empty = RgbImage {
-            width: w as u32,
-            height: h as u32,
-            data: (0..w * h)
-                .map(|i| {
-                    let t = 0.35 + 0.25 * ((i % 7) as f32 * PI / 7.0).sin();
-                    [t, 0.8 * t, 0.6 * t + 0.1]
-                })
-                .collect(),
-        };
+        let empty = textured(w, h, 7, |t| [t, 0.8 * t, 0.6 * t + 0.1]);
         let light = |n: Vec3| {
             [
                 1.2 + 0.5 * n.z,
@@ -364,16 +366,7 @@ mod tests {
     fn a_light_change_one_gain_explains_leaves_the_room_as_it_is() {
         let (w, h) = (96, 48);
         let depth = box_room_depth(w, h);
-        let empty = RgbImage {
-            width: w as u32,
-            height: h as u32,
-            data: (0..w * h)
-                .map(|i| {
-                    let t = 0.3 + 0.3 * ((i % 11) as f32 * PI / 11.0).sin();
-                    [t, t, 0.9 * t]
-                })
-                .collect(),
-        };
+        let empty = textured(w, h, 11, |t| [t, t, 0.9 * t]);
         let query = empty.map(|e| {
             std::array::from_fn(|c| linear_to_srgb(srgb_to_linear(e[c]) * [1.3, 1.1, 0.9][c]))
         });

@@ -134,12 +134,48 @@ fn full_sizes() -> (ObjectCaptureConfig, BackgroundConfig, PanoramaConfig) {
     )
 }
 
+/// Rendering sizes for small rooms at 2 samples per pixel: `views` per capture, object views of
+/// `resolution`², background views of (width, height, focal), and `panoramas` = (width, arrangements),
+/// each arrangement under 2 lightings.
+fn light_sizes(
+    views: u32,
+    resolution: u32,
+    (width, height, focal): (u32, u32, f64),
+    (panorama_width, arrangements): (u32, u32),
+) -> (ObjectCaptureConfig, BackgroundConfig, PanoramaConfig) {
+    let quality = Quality { spp: 2, ao_rays: 1 };
+    let (object_capture, _, _) = full_sizes();
+    (
+        ObjectCaptureConfig {
+            views,
+            resolution,
+            quality,
+            ..object_capture
+        },
+        BackgroundConfig {
+            views,
+            width,
+            height,
+            focal,
+            quality,
+        },
+        PanoramaConfig {
+            width: panorama_width,
+            arrangements,
+            lightings: 2,
+            quality,
+        },
+    )
+}
+
 impl Preset {
     /// The preset called `name` (see [`PRESET_NAMES`]).
     pub fn named(name: &str) -> Option<Self> {
         let (object_capture, background, panoramas) = full_sizes();
         let (models, objects, room_size) = match name {
             "tiny" => {
+                let (object_capture, background, panoramas) =
+                    light_sizes(6, 64, (96, 72, 78.0), (128, 2));
                 return Some(Self {
                     name: "tiny".into(),
                     room_size: [3.6, 3.2, 2.5],
@@ -148,28 +184,14 @@ impl Preset {
                         object("cabinet", "cabinet", None),
                         object("vase", "vase", Some("cabinet")),
                     ],
-                    object_capture: ObjectCaptureConfig {
-                        views: 6,
-                        resolution: 64,
-                        quality: Quality { spp: 2, ao_rays: 1 },
-                        ..object_capture
-                    },
-                    background: BackgroundConfig {
-                        views: 6,
-                        width: 96,
-                        height: 72,
-                        focal: 78.0,
-                        quality: Quality { spp: 2, ao_rays: 1 },
-                    },
-                    panoramas: PanoramaConfig {
-                        width: 128,
-                        arrangements: 2,
-                        lightings: 2,
-                        quality: Quality { spp: 2, ao_rays: 1 },
-                    },
+                    object_capture,
+                    background,
+                    panoramas,
                 });
             }
             "studio" => {
+                let (object_capture, background, panoramas) =
+                    light_sizes(32, 128, (192, 144, 156.0), (512, 1));
                 return Some(Self {
                     name: "studio".into(),
                     room_size: [3.6, 3.2, 2.5],
@@ -183,25 +205,9 @@ impl Preset {
                         object("chair", "chair", None),
                         object("vase", "vase", Some("cabinet")),
                     ],
-                    object_capture: ObjectCaptureConfig {
-                        views: 32,
-                        resolution: 128,
-                        quality: Quality { spp: 2, ao_rays: 1 },
-                        ..object_capture
-                    },
-                    background: BackgroundConfig {
-                        views: 32,
-                        width: 192,
-                        height: 144,
-                        focal: 156.0,
-                        quality: Quality { spp: 2, ao_rays: 1 },
-                    },
-                    panoramas: PanoramaConfig {
-                        width: 512,
-                        arrangements: 1,
-                        lightings: 2,
-                        quality: Quality { spp: 2, ao_rays: 1 },
-                    },
+                    object_capture,
+                    background,
+                    panoramas,
                 });
             }
             "bedroom" => (
