@@ -35,7 +35,7 @@ pub struct Args {
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     anyhow::ensure!(
-        args.width >= 2 && args.width % 2 == 0,
+        args.width >= 2 && args.width.is_multiple_of(2),
         "--width must be even and at least 2"
     );
     let options = EvalOptions {
