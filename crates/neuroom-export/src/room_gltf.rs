@@ -144,22 +144,10 @@ pub fn room_glb(meshes: &SceneMeshes, camera: &ExportCamera) -> Vec<u8> {
 mod tests {
     use super::*;
     use crate::glb::split_glb;
-    use crate::mesh::{MeshDetail, scene_meshes};
-    use crate::testing::{tiny_arrangement, tiny_scene};
+    use crate::testing::{tiny_arrangement, tiny_meshes};
 
     fn tiny_glb() -> (SceneMeshes, Vec<u8>) {
-        let scene = tiny_scene();
-        let names: Vec<String> = tiny_arrangement()
-            .objects
-            .iter()
-            .map(|o| o.name.clone())
-            .collect();
-        let detail = MeshDetail {
-            object_cell_m: 0.04,
-            room_cell_m: 0.15,
-            ..MeshDetail::default()
-        };
-        let meshes = scene_meshes(&scene, &names, &detail);
+        let meshes = tiny_meshes(0.04, 0.15);
         let camera = ExportCamera::from_panorama(tiny_arrangement().camera_to_world);
         let bytes = room_glb(&meshes, &camera);
         (meshes, bytes)

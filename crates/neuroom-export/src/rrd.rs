@@ -159,8 +159,7 @@ fn log_boxes(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{MeshDetail, scene_meshes};
-    use crate::testing::{tiny_arrangement, tiny_scene};
+    use crate::testing::{tiny_arrangement, tiny_meshes};
     use glam::DVec3;
     use neuroom_core::obb::OrientedBox;
 
@@ -182,17 +181,7 @@ mod tests {
 
     #[test]
     fn a_tiny_room_records_as_an_rrd_file() {
-        let names: Vec<String> = tiny_arrangement()
-            .objects
-            .iter()
-            .map(|o| o.name.clone())
-            .collect();
-        let detail = MeshDetail {
-            object_cell_m: 0.05,
-            room_cell_m: 0.2,
-            ..MeshDetail::default()
-        };
-        let meshes = scene_meshes(&tiny_scene(), &names, &detail);
+        let meshes = tiny_meshes(0.05, 0.2);
         let png =
             crate::report::encode_png(&neuroom_core::image::Image::filled(8, 4, [0.5; 3])).unwrap();
         let (solved, truth) = (boxes(0.0), boxes(0.05));

@@ -116,6 +116,26 @@ fn small_database(empty: &Scene<AnalyticField>) -> Database {
     build_database(empty, &config, &mut |_, _| {})
 }
 
+/// Localizes `query` in the empty room with 6 candidates refined at 128 and 256 px; returns the position
+/// (metres) and rotation (degrees) errors against `truth`.
+fn localization_error(
+    empty: &Scene<AnalyticField>,
+    db: &Database,
+    query: &RgbImage,
+    truth: &Pose,
+) -> (f64, f64) {
+    let config = LocalizeConfig {
+        candidates: 6,
+        fine_widths: vec![128, 256],
+        ..LocalizeConfig::default()
+    };
+    let found = localize(empty, db, query, &config).unwrap().pose();
+    (
+        found.translation.distance(truth.translation),
+        neuroom_core::metrics::rotation_error_deg(truth.rotation, found.rotation),
+    )
+}
+
 #[test]
 fn the_camera_is_found_despite_an_object_and_a_darker_exposure() {
     let empty = scene(None);
@@ -124,14 +144,7 @@ fn the_camera_is_found_despite_an_object_and_a_darker_exposure() {
     let truth = Pose::from_yaw_translation(2.1, DVec3::new(1.35, 1.1, 1.5));
     let object = Pose::from_yaw_translation(0.4, DVec3::new(2.6, 1.9, 0.25));
     let query = panorama(&scene(Some((0, object))), &truth, 256, 0.8);
-    let config = LocalizeConfig {
-        candidates: 6,
-        fine_widths: vec![128, 256],
-        ..LocalizeConfig::default()
-    };
-    let found = localize(&empty, &db, &query, &config).unwrap().pose();
-    let position = found.translation.distance(truth.translation);
-    let rotation = neuroom_core::metrics::rotation_error_deg(truth.rotation, found.rotation);
+    let (position, rotation) = localization_error(&empty, &db, &query, &truth);
     assert!(position < 0.03, "position error {position} m");
     assert!(rotation < 0.5, "rotation error {rotation}°");
 }
@@ -169,14 +182,7 @@ fn the_camera_is_found_under_other_lights() {
     let truth = Pose::from_yaw_translation(-0.9, DVec3::new(2.55, 1.8, 1.45));
     let object = Pose::from_yaw_translation(0.4, DVec3::new(1.2, 2.2, 0.25));
     let query = relit_panorama(&scene(Some((0, object))), &truth, 256);
-    let config = LocalizeConfig {
-        candidates: 6,
-        fine_widths: vec![128, 256],
-        ..LocalizeConfig::default()
-    };
-    let found = localize(&empty, &db, &query, &config).unwrap().pose();
-    let position = found.translation.distance(truth.translation);
-    let rotation = neuroom_core::metrics::rotation_error_deg(truth.rotation, found.rotation);
+    let (position, rotation) = localization_error(&empty, &db, &query, &truth);
     // The target.
     assert!(position < 0.05, "position error {position} m");
     assert!(rotation < 0.5, "rotation error {rotation}°");
