@@ -213,7 +213,9 @@ fn image_scores(
     })?;
     let scene = solved_scene(models, arrangement)?;
     let render = render_view(&scene, &ViewCamera::Panorama { width })?.rgb;
+    // AlexNet needs a few dozen pixels a side: smaller comparisons go without LPIPS.
     let lpips = lpips
+        .filter(|_| render.height >= neuroom_lpips::MIN_SIDE)
         .map(|l| l.distance(&input, &render))
         .transpose()
         .map_err(|e| anyhow::anyhow!("{}: LPIPS: {e}", panorama.display()))?;
@@ -367,7 +369,7 @@ mod tests {
         write_arrangement(&off, &moved).unwrap();
         let options = EvalOptions {
             models: Some(models),
-            render_width: 32,
+            render_width: 64,
         };
         let mut seen = 0;
         let e = evaluate(&room, &[exact, off], &options, &mut |_| seen += 1).unwrap();
@@ -381,9 +383,13 @@ mod tests {
         let ape = b.objects.mean_position_error_cm.unwrap();
         assert!((ape - 2.5).abs() < 1e-6, "5 cm and 0 cm: {ape}");
         let (ia, ib) = (a.image.unwrap(), b.image.unwrap());
-        assert_eq!(ia.width, 32);
+        assert_eq!(ia.width, 64);
         assert!(ia.psnr_db > ib.psnr_db + 3.0, "{ia:?} vs {ib:?}");
         assert!(ia.ssim > ib.ssim);
+        // LPIPS where its weights are installed (`tools/setup_lpips.py`).
+        if e.lpips_unavailable.is_none() {
+            assert!(ia.lpips.unwrap() < ib.lpips.unwrap(), "{ia:?} vs {ib:?}");
+        }
         assert_eq!(e.mean.arrangements, 2);
         assert!((e.mean.recall - (1.0 + 2.0 / 3.0) / 2.0).abs() < 1e-12);
         let text = table(&e);
