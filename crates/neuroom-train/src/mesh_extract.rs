@@ -9,7 +9,7 @@
 use std::collections::HashMap;
 
 use glam::{UVec3, Vec3};
-use kiddo::{KdTree, SquaredEuclidean};
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use neuroom_core::mesh::TriMesh;
 use rayon::prelude::*;
 
@@ -190,10 +190,10 @@ fn mean_nearest_distance(queries: &[Vec3], targets: &[Vec3]) -> f32 {
     if queries.is_empty() {
         return 0.0;
     }
-    let mut tree: KdTree<f32, 3> = KdTree::with_capacity(targets.len());
-    for (i, p) in targets.iter().enumerate() {
-        tree.add(&p.to_array(), i as u64);
-    }
+    // The immutable tree: balanced at construction, and indifferent to many points sharing a coordinate
+    // (flat faces of a mesh put hundreds on one plane, which overflows a bucketed mutable tree).
+    let points: Vec<[f32; 3]> = targets.iter().map(|p| p.to_array()).collect();
+    let tree: ImmutableKdTree<f32, 3> = ImmutableKdTree::new_from_slice(&points);
     let sum: f64 = queries
         .par_iter()
         .map(|q| {
@@ -254,5 +254,16 @@ mod tests {
         // Scaling radius 0.5 by 1.02 moves every point 1 cm outward; nearest neighbours are at most that far.
         assert!(c.mean > 0.005 && c.mean <= 0.0101, "{c:?}");
         assert!(chamfer(&a, &a).mean < 1e-6);
+    }
+
+    #[test]
+    fn chamfer_of_flat_faces_with_shared_coordinates() {
+        // 2 500 points on the plane x = 0 (a box face) against the same grid shifted 3 mm along x.
+        let a: Vec<Vec3> = (0..2500)
+            .map(|i| Vec3::new(0.0, (i % 50) as f32 * 0.01, (i / 50) as f32 * 0.01))
+            .collect();
+        let b: Vec<Vec3> = a.iter().map(|p| *p + Vec3::X * 0.003).collect();
+        let c = chamfer(&a, &b);
+        assert!((c.mean - 0.003).abs() < 1e-6, "{c:?}");
     }
 }
