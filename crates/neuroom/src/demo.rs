@@ -175,9 +175,10 @@ pub fn run(config: &DemoConfig, progress: &mut dyn DemoProgress) -> anyhow::Resu
 /// Training budgets for the demo size.
 fn train_options(config: &DemoConfig) -> TrainOptions {
     match config.size {
+        // Three object models and the room in about 75 s of budgets; held-out evaluation adds ~50 s.
         DemoSize::Quick => TrainOptions {
-            object_seconds: Some(25.0),
-            background_seconds: Some(40.0),
+            object_seconds: Some(15.0),
+            background_seconds: Some(30.0),
             seed: Some(config.seed),
             ..TrainOptions::default()
         },
