@@ -42,6 +42,20 @@ pub struct DatabaseConfig {
     pub render: RenderConfig,
 }
 
+/// Rendering for the small panoramas localization compares: half the safe-region samples of the default
+/// (4 coarse + 8 fine), as the database and the keyframes need colour and depth, not fine detail.
+pub fn low_resolution_render() -> RenderConfig {
+    RenderConfig {
+        sampling: Sampling::SafeRegion {
+            coarse: 4,
+            fine: 8,
+            before: 0.05,
+            after: 0.1,
+        },
+        ..RenderConfig::default()
+    }
+}
+
 impl Default for DatabaseConfig {
     fn default() -> Self {
         Self {
@@ -50,15 +64,7 @@ impl Default for DatabaseConfig {
             heights: vec![1.2, 1.6],
             clearance: 0.3,
             min_coverage: 0.9,
-            render: RenderConfig {
-                sampling: Sampling::SafeRegion {
-                    coarse: 4,
-                    fine: 8,
-                    before: 0.05,
-                    after: 0.1,
-                },
-                ..RenderConfig::default()
-            },
+            render: low_resolution_render(),
         }
     }
 }

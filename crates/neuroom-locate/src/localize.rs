@@ -17,7 +17,7 @@ use neuroom_core::camera::Equirect;
 use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
-use neuroom_render::{RenderConfig, Sampling, Scene, render_image};
+use neuroom_render::{RenderConfig, Scene, render_image};
 use serde::{Deserialize, Serialize};
 
 use crate::align::{AlignConfig, Alignment, Keyframe, align};
@@ -68,15 +68,7 @@ impl Default for LocalizeConfig {
                 sigmas: vec![2.0, 1.0],
                 ..AlignConfig::default()
             },
-            render: RenderConfig {
-                sampling: Sampling::SafeRegion {
-                    coarse: 4,
-                    fine: 8,
-                    before: 0.05,
-                    after: 0.1,
-                },
-                ..RenderConfig::default()
-            },
+            render: crate::database::low_resolution_render(),
         }
     }
 }

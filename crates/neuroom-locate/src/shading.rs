@@ -211,7 +211,7 @@ fn global_gain(query: &RgbImage, empty: &RgbImage, normals: &[Option<Vec3>]) -> 
             .collect();
         median(ratios).unwrap_or(1.0)
     });
-    empty.map(|e| std::array::from_fn(|c| linear_to_srgb((srgb_to_linear(e[c]) * g[c]).min(1.0))))
+    empty.map(|e| crate::evidence::relit(*e, g))
 }
 
 fn median(mut v: Vec<f32>) -> Option<f32> {
