@@ -15,6 +15,8 @@ use crate::sphere::project;
 pub struct Cloud {
     /// Points (object frame, metres).
     pub points: Vec<Vec3>,
+    /// Outward unit normals (object frame): points facing away from the camera are not drawn.
+    pub normals: Vec<Vec3>,
     /// Colours, sRGB in [0, 1].
     pub colors: Vec<Vec3>,
     /// Grid spacing the points were taken at (metres).
@@ -64,6 +66,7 @@ pub fn surface_cloud<F: Field>(field: &F, half: Vec3, spacing: f32, codes: CodeS
             .map(|c| c.clamp(Vec3::ZERO, Vec3::ONE))
             .collect(),
         points,
+        normals,
         spacing,
     }
 }
@@ -77,6 +80,10 @@ pub struct Silhouette {
     pub colors: Vec<Vec3>,
 }
 
+/// Cosine between a point's normal and its viewing ray above which it counts as a back face: slightly
+/// positive, so that points on the silhouette's rim stay.
+const BACK_FACE_COSINE: f32 = 0.1;
+
 /// Reusable z-buffer for [`splat`].
 #[derive(Clone, Debug, Default)]
 pub struct ZBuffer {
@@ -87,7 +94,8 @@ pub struct ZBuffer {
 
 /// Projects `cloud` placed at `object_to_world` into a `width × height` panorama at `camera_to_world`.
 /// Points farther than the empty room's depth (plus `tolerance`) are hidden by it; each point covers a
-/// square of pixels as wide as its spacing appears.
+/// square of pixels as wide as its spacing appears. Points whose normal faces away from the camera are
+/// skipped: the cloud is sparse, and back faces would show through the gaps between front points.
 #[allow(clippy::too_many_arguments)]
 pub fn splat(
     cloud: &Cloud,
@@ -107,9 +115,12 @@ pub fn splat(
     let m: Mat3 = rc * object_to_world.rotation_f32();
     let b: Vec3 = rc * (object_to_world.translation - camera_to_world.translation).as_vec3();
     let pixel_angle = std::f32::consts::TAU / width as f32;
-    for (x, c) in cloud.points.iter().zip(&cloud.colors) {
+    for ((x, n), c) in cloud.points.iter().zip(&cloud.normals).zip(&cloud.colors) {
         let p = m * *x + b;
         let dist = p.length();
+        if (m * *n).dot(p) > BACK_FACE_COSINE * dist {
+            continue;
+        }
         let Some(pix) = project(p.as_dvec3(), width, height) else {
             continue;
         };
@@ -193,5 +204,39 @@ mod tests {
         let near = vec![1.0; w * h];
         let hidden = splat(&cloud, &object, &camera, w, h, &near, 0.1, &mut buffer);
         assert!(hidden.pixels.is_empty());
+    }
+
+    #[test]
+    fn only_the_faces_towards_the_camera_are_drawn() {
+        // Red grows with x: the face at x = −0.25 (towards a camera on −x) is darker than the far one.
+        let field = AnalyticField::Cuboid {
+            centre: Vec3::ZERO,
+            half: Vec3::splat(0.25),
+            color: AnalyticColor::Position {
+                origin: Vec3::ZERO,
+                scale: 0.25,
+            },
+        };
+        // Coarse: the points of one face leave gaps that the far face would fill.
+        let cloud = surface_cloud(&field, Vec3::splat(0.3), 0.08, CodeSet::default());
+        let (w, h) = (256, 128);
+        let object = Pose::from_yaw_translation(0.0, DVec3::new(2.0, 0.0, 0.0));
+        let far = vec![10.0; w * h];
+        let seen = splat(
+            &cloud,
+            &object,
+            &Pose::IDENTITY,
+            w,
+            h,
+            &far,
+            0.1,
+            &mut ZBuffer::default(),
+        );
+        assert!(!seen.colors.is_empty());
+        let far_face = seen.colors.iter().filter(|c| c.x > 0.9).count();
+        assert_eq!(
+            far_face, 0,
+            "the far face shows through in {far_face} pixels"
+        );
     }
 }

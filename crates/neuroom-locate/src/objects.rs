@@ -131,6 +131,44 @@ struct Target<'a, F> {
     room_error: Vec<f32>,
 }
 
+impl<'a, F: Field> Target<'a, F> {
+    fn new(
+        empty: &'a Scene<F>,
+        view: &'a View,
+        camera_to_world: &Pose,
+        detections: &[Detection],
+        models: usize,
+        config: &SearchConfig,
+    ) -> Self {
+        let n = view.width() * view.height();
+        let mut allowed = vec![vec![false; n]; models];
+        for d in detections {
+            for &p in &d.pixels {
+                for (m, a) in allowed.iter_mut().enumerate() {
+                    if d.model.is_none_or(|k| k == m) {
+                        a[p as usize] = true;
+                    }
+                }
+            }
+        }
+        Self {
+            view,
+            room: &empty.models[empty.background.model].field,
+            camera: *camera_to_world,
+            allowed: allowed
+                .iter()
+                .map(|a| dilate_n(a, view.width(), view.height(), config.allowed_margin))
+                .collect(),
+            tolerance: config.occlusion_tolerance,
+            room_error: residual(view)
+                .iter()
+                .zip(&view.empty_depth)
+                .map(|(r, d)| if *d > 0.0 { *r } else { config.unknown_error })
+                .collect(),
+        }
+    }
+}
+
 /// Finds the objects of `models` in `view` (seen from `camera_to_world`) given `detections`, in the
 /// room `empty` (a scene of the background alone, for floor heights and wall normals).
 pub fn find_objects<F: Field>(
@@ -141,32 +179,14 @@ pub fn find_objects<F: Field>(
     models: &[ObjectModel],
     config: &SearchConfig,
 ) -> Vec<Found> {
-    let n = view.width() * view.height();
-    let mut allowed = vec![vec![false; n]; models.len()];
-    for d in detections {
-        for &p in &d.pixels {
-            for (m, a) in allowed.iter_mut().enumerate() {
-                if d.model.is_none_or(|k| k == m) {
-                    a[p as usize] = true;
-                }
-            }
-        }
-    }
-    let target = Target {
+    let target = Target::new(
+        empty,
         view,
-        room: &empty.models[empty.background.model].field,
-        camera: *camera_to_world,
-        allowed: allowed
-            .iter()
-            .map(|a| dilate_n(a, view.width(), view.height(), config.allowed_margin))
-            .collect(),
-        tolerance: config.occlusion_tolerance,
-        room_error: residual(view)
-            .iter()
-            .zip(&view.empty_depth)
-            .map(|(r, d)| if *d > 0.0 { *r } else { config.unknown_error })
-            .collect(),
-    };
+        camera_to_world,
+        detections,
+        models.len(),
+        config,
+    );
     let floor = floor_height(empty, camera_to_world);
     let mut pool: Vec<Hypothesis> = Vec::new();
     for (m, model) in models.iter().enumerate() {

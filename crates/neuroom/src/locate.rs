@@ -152,16 +152,18 @@ pub fn object_models(room: &Room, loaded: &RoomModels) -> anyhow::Result<Vec<Obj
             let placement = placement(&first.relations, &model_of);
             let against_wall =
                 placement == Placement::Floor && first.relations.iter().any(|r| r == "wall");
-            let half = Vec3::from(entry.bounds.max)
+            // The model's bounds carry a margin; the object's box is room.json's `size` (FORMAT.md).
+            let bounds = Vec3::from(entry.bounds.max)
                 .abs()
                 .max(Vec3::from(entry.bounds.min).abs());
-            let spacing = (2.0 * half.max_element() / 25.0).clamp(0.02, 0.06);
+            let half = (0.5 * first.size).as_vec3();
+            let spacing = (2.0 * bounds.max_element() / 25.0).clamp(0.02, 0.06);
             let field = &loaded.fields[k];
             Ok(ObjectModel {
                 ids: entry.ids.clone(),
                 half,
-                coarse: surface_cloud(field, half, spacing, CodeSet::default()),
-                fine: surface_cloud(field, half, 0.6 * spacing, CodeSet::default()),
+                coarse: surface_cloud(field, bounds, spacing, CodeSet::default()),
+                fine: surface_cloud(field, bounds, 0.6 * spacing, CodeSet::default()),
                 placement,
                 against_wall,
             })
