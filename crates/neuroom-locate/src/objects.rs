@@ -132,14 +132,15 @@ struct Target<'a, F> {
 }
 
 impl<'a, F: Field> Target<'a, F> {
-    fn new(
-        empty: &'a Scene<F>,
-        view: &'a View,
-        camera_to_world: &Pose,
-        detections: &[Detection],
-        models: usize,
-        config: &SearchConfig,
-    ) -> Self {
+    fn new(input: &SearchInput<'a, F>, config: &SearchConfig) -> Self {
+        let SearchInput {
+            empty,
+            view,
+            camera_to_world,
+            detections,
+            models,
+        } = *input;
+        let models = models.len();
         let n = view.width() * view.height();
         let mut allowed = vec![vec![false; n]; models];
         for d in detections {
@@ -154,7 +155,7 @@ impl<'a, F: Field> Target<'a, F> {
         Self {
             view,
             room: &empty.models[empty.background.model].field,
-            camera: *camera_to_world,
+            camera: camera_to_world,
             allowed: allowed
                 .iter()
                 .map(|a| dilate_n(a, view.width(), view.height(), config.allowed_margin))
@@ -169,25 +170,49 @@ impl<'a, F: Field> Target<'a, F> {
     }
 }
 
-/// Finds the objects of `models` in `view` (seen from `camera_to_world`) given `detections`, in the
-/// room `empty` (a scene of the background alone, for floor heights and wall normals).
-pub fn find_objects<F: Field>(
-    empty: &Scene<F>,
-    view: &View,
-    camera_to_world: &Pose,
-    detections: &[Detection],
-    models: &[ObjectModel],
+/// What the object search looks at: the panorama at the found camera, the empty room, the detections and
+/// the models to find.
+pub struct SearchInput<'a, F> {
+    /// The room without objects (a scene of the background alone, for floor heights and wall normals).
+    pub empty: &'a Scene<F>,
+    /// The panorama and the empty room at the working resolution.
+    pub view: &'a View,
+    /// The found camera.
+    pub camera_to_world: Pose,
+    /// Where objects are seen.
+    pub detections: &'a [Detection],
+    /// The models searched.
+    pub models: &'a [ObjectModel],
+}
+
+impl<F> Clone for SearchInput<'_, F> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<F> Copy for SearchInput<'_, F> {}
+
+/// The score of model `m` at `pose` with nothing explained yet: (score, pixels it explains better than
+/// the empty room, their fraction of its visible pixels), as the search ranks hypotheses.
+pub fn pose_score<F: Field>(
+    input: &SearchInput<F>,
+    m: usize,
+    pose: &Pose,
     config: &SearchConfig,
-) -> Vec<Found> {
-    let target = Target::new(
-        empty,
-        view,
-        camera_to_world,
-        detections,
-        models.len(),
-        config,
-    );
-    let floor = floor_height(empty, camera_to_world);
+) -> (f64, usize, f64) {
+    let target = Target::new(input, config);
+    let explained = vec![false; target.room_error.len()];
+    let mut buf = ZBuffer::default();
+    let model = &input.models[m];
+    hypothesis_score(&target, &explained, model, false, pose, &mut buf, config)
+}
+
+/// Finds the objects of `input` and their initial poses.
+pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> Vec<Found> {
+    let target = Target::new(input, config);
+    let (empty, models) = (input.empty, input.models);
+    let floor = floor_height(empty, &input.camera_to_world);
     let mut pool: Vec<Hypothesis> = Vec::new();
     for (m, model) in models.iter().enumerate() {
         let hyps = match model.placement {

@@ -8,7 +8,9 @@ use neuroom_core::pose::Pose;
 use neuroom_field::{AnalyticColor, AnalyticField, CodeSet};
 use neuroom_locate::cloud::surface_cloud;
 use neuroom_locate::evidence::{Detector, ResidualDetector, View};
-use neuroom_locate::objects::{ObjectModel, Placement, SearchConfig, find_objects};
+use neuroom_locate::objects::{
+    ObjectModel, Placement, SearchConfig, SearchInput, find_objects, pose_score,
+};
 use neuroom_locate::{
     Database, DatabaseConfig, LocalizeConfig, build_database, localize, render_background,
 };
@@ -233,31 +235,36 @@ fn object_models() -> Vec<ObjectModel> {
         .collect()
 }
 
-#[test]
-fn the_present_object_is_placed_and_the_absent_one_is_not_invented() {
+/// The view of the red box at `truth` from `camera` under a 0.9 exposure, with the empty room beside it.
+fn object_view(camera: &Pose, truth: &Pose) -> (Scene<AnalyticField>, View) {
     let empty = scene(None);
-    let camera = Pose::new(DMat3::IDENTITY, DVec3::new(1.5, 1.4, 1.4));
-    let truth = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, BOX_A.z as f64));
     let width = 128;
-    let query = panorama(&scene(Some((0, truth))), &camera, width, 0.9);
-    let (room, depth) =
-        render_background(&empty, &camera, width as usize, &RenderConfig::default());
+    let query = panorama(&scene(Some((0, *truth))), camera, width, 0.9);
+    let (room, depth) = render_background(&empty, camera, width as usize, &RenderConfig::default());
     let view = View {
         query,
         empty: room,
         empty_depth: depth,
     };
+    (empty, view)
+}
+
+#[test]
+fn the_present_object_is_placed_and_the_absent_one_is_not_invented() {
+    let camera = Pose::new(DMat3::IDENTITY, DVec3::new(1.5, 1.4, 1.4));
+    let truth = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, BOX_A.z as f64));
+    let (empty, view) = object_view(&camera, &truth);
     let detections = ResidualDetector::default().detect(&view);
     assert!(!detections.is_empty());
     let models = object_models();
-    let found = find_objects(
-        &empty,
-        &view,
-        &camera,
-        &detections,
-        &models,
-        &SearchConfig::default(),
-    );
+    let input = SearchInput {
+        empty: &empty,
+        view: &view,
+        camera_to_world: camera,
+        detections: &detections,
+        models: &models,
+    };
+    let found = find_objects(&input, &SearchConfig::default());
     assert_eq!(found.len(), 1, "{found:?}");
     assert_eq!(found[0].id, 1);
     let pose = Pose::from_rows_unchecked(&found[0].object_to_world);
@@ -267,4 +274,30 @@ fn the_present_object_is_placed_and_the_absent_one_is_not_invented() {
     let yaw = yaw.min(std::f64::consts::PI - yaw).to_degrees();
     assert!(position < 0.08, "position error {position} m");
     assert!(yaw < 8.0, "yaw error {yaw}°");
+}
+
+#[test]
+fn the_true_pose_scores_above_a_turned_or_shifted_one() {
+    let camera = Pose::new(DMat3::IDENTITY, DVec3::new(1.5, 1.4, 1.4));
+    let truth = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, BOX_A.z as f64));
+    let (empty, view) = object_view(&camera, &truth);
+    let detections = ResidualDetector::default().detect(&view);
+    let models = object_models();
+    let input = SearchInput {
+        empty: &empty,
+        view: &view,
+        camera_to_world: camera,
+        detections: &detections,
+        models: &models,
+    };
+    let config = SearchConfig::default();
+    let score = |pose: &Pose| pose_score(&input, 0, pose, &config);
+    let best = score(&truth);
+    assert!(best.0 > 0.0 && best.2 > 0.8, "{best:?}");
+    let turned = Pose::from_yaw_translation(0.5 + std::f64::consts::FRAC_PI_2, truth.translation);
+    let shifted = Pose::from_yaw_translation(0.5, truth.translation + DVec3::new(0.0, 0.3, 0.0));
+    for other in [turned, shifted] {
+        let s = score(&other);
+        assert!(s.0 < best.0, "{s:?} ≥ {best:?}");
+    }
 }

@@ -15,7 +15,9 @@ use neuroom_field::{CodeSet, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
 use neuroom_locate::cloud::surface_cloud;
 use neuroom_locate::evidence::{Detector, ResidualDetector, View};
-use neuroom_locate::objects::{Found, ObjectModel, Placement, SearchConfig, find_objects};
+use neuroom_locate::objects::{
+    Found, ObjectModel, Placement, SearchConfig, SearchInput, find_objects,
+};
 use neuroom_locate::plane::{blur_rgb, downsample_rgb};
 use neuroom_locate::shading::match_shading;
 use neuroom_locate::{
@@ -254,14 +256,14 @@ pub fn locate_image(
         empty_depth,
     };
     let detections = config.detector.detect(&view);
-    let found = find_objects(
-        &ctx.scene,
-        &view,
-        &pose,
-        &detections,
-        &ctx.objects,
-        &config.search,
-    );
+    let input = SearchInput {
+        empty: &ctx.scene,
+        view: &view,
+        camera_to_world: pose,
+        detections: &detections,
+        models: &ctx.objects,
+    };
+    let found = find_objects(&input, &config.search);
     let objects = found
         .iter()
         .map(|f| ArrangedObject {
