@@ -78,6 +78,11 @@ pub struct Silhouette {
     pub pixels: Vec<u32>,
     /// Colour of the nearest point per pixel.
     pub colors: Vec<Vec3>,
+    /// Whether the pixel lies on the silhouette's rim (a 4-neighbour is not covered): the object
+    /// covers only part of it, and a panorama pixel there mixes it with what lies behind.
+    pub rim: Vec<bool>,
+    /// Distance of the nearest point per pixel (metres).
+    pub depths: Vec<f32>,
 }
 
 /// Cosine between a point's normal and its viewing ray above which it counts as a back face: slightly
@@ -93,7 +98,8 @@ pub struct ZBuffer {
 }
 
 /// Projects `cloud` placed at `object_to_world` into a `width × height` panorama at `camera_to_world`.
-/// Points farther than the empty room's depth (plus `tolerance`) are hidden by it; each point covers a
+/// Points farther than the scene's surface at `room_depth` (plus `tolerance`; 0 = no surface) are
+/// hidden by it; each point covers a
 /// square of pixels as wide as its spacing appears. Points whose normal faces away from the camera are
 /// skipped: the cloud is sparse, and back faces would show through the gaps between front points.
 #[allow(clippy::too_many_arguments)]
@@ -152,8 +158,19 @@ pub fn splat(
     }
     let mut out = Silhouette::default();
     for &i in &buffer.touched {
-        out.pixels.push(i);
-        out.colors.push(buffer.color[i as usize]);
+        let i = i as usize;
+        let (u, v) = (i % width, i / width);
+        let covered = |j: usize| buffer.depth[j].is_finite();
+        let rim = !(covered(v * width + (u + 1) % width)
+            && covered(v * width + (u + width - 1) % width)
+            && (v == 0 || covered(i - width))
+            && (v + 1 == height || covered(i + width)));
+        out.pixels.push(i as u32);
+        out.colors.push(buffer.color[i]);
+        out.rim.push(rim);
+        out.depths.push(buffer.depth[i]);
+    }
+    for &i in &buffer.touched {
         buffer.depth[i as usize] = f32::INFINITY;
     }
     buffer.touched.clear();

@@ -1,11 +1,13 @@
 //! Where the panorama shows something the empty room does not: the per-pixel difference between the
 //! input and the empty room rendered at the found camera, after a robust per-channel gain (changed light
 //! colour and exposure), thresholded against its own spread, cleaned by opening, split into connected
-//! regions. A [`Detector`] turns a view into detections; [`ResidualDetector`] is this classical one, and
+//! regions; light sources and the ceiling are left out. A [`Detector`] turns a view into detections; [`ResidualDetector`] is this classical one, and
 //! a learned detector plugs in through the same trait (it may also name the model of each detection).
 
 use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
 use serde::{Deserialize, Serialize};
+
+use crate::shading::panorama_normals;
 
 /// The input panorama and the empty room, both at the working resolution, at the found camera.
 #[derive(Clone, Debug)]
@@ -54,6 +56,11 @@ pub struct ResidualDetector {
     pub floor: f32,
     /// Smallest region kept (pixels).
     pub min_pixels: usize,
+    /// Pixels whose every channel is brighter than this are light sources, not objects.
+    pub light_source: f32,
+    /// Surfaces whose normal's vertical component is below this (the ceiling, which no object stands
+    /// on and which other lamps light very differently) give no evidence.
+    pub ceiling_normal_z: f32,
 }
 
 impl Default for ResidualDetector {
@@ -62,6 +69,8 @@ impl Default for ResidualDetector {
             factor: 3.0,
             floor: 0.06,
             min_pixels: 12,
+            light_source: 0.97,
+            ceiling_normal_z: -0.8,
         }
     }
 }
@@ -73,8 +82,18 @@ impl Detector for ResidualDetector {
         let mid = sorted.len() / 2;
         let median = *sorted.select_nth_unstable_by(mid, f32::total_cmp).1;
         let threshold = (self.factor * median).max(self.floor);
-        let raw: Vec<bool> = residual.iter().map(|r| *r > threshold).collect();
         let (w, h) = (view.width(), view.height());
+        let normals = panorama_normals(&view.empty_depth, w, h);
+        let raw: Vec<bool> = residual
+            .iter()
+            .zip(&view.query.data)
+            .zip(&normals)
+            .map(|((r, q), n)| {
+                let light = q.iter().all(|c| *c > self.light_source);
+                let ceiling = n.is_some_and(|n| n.z < self.ceiling_normal_z);
+                *r > threshold && !light && !ceiling
+            })
+            .collect();
         let cleaned = dilate(&erode(&raw, w, h), w, h);
         components(&cleaned, w, h)
             .into_iter()
@@ -225,5 +244,41 @@ mod tests {
         assert_eq!(found.len(), 1);
         // Opening removes the one-pixel rim of the 6 × 5 block, dilation restores most of it.
         assert!(found[0].pixels.len() >= 20 && found[0].pixels.len() <= 30);
+    }
+
+    #[test]
+    fn light_sources_and_the_ceiling_give_no_evidence() {
+        // A sphere of radius 2 around the camera: its top rows face down like a ceiling.
+        let (w, h) = (32usize, 16usize);
+        let empty = RgbImage {
+            width: w as u32,
+            height: h as u32,
+            data: vec![[0.5, 0.5, 0.5]; w * h],
+        };
+        let mut query = empty.clone();
+        let mut paint =
+            |rows: std::ops::Range<usize>, cols: std::ops::Range<usize>, c: [f32; 3]| {
+                for v in rows {
+                    for u in cols.clone() {
+                        query.data[v * w + u] = c;
+                    }
+                }
+            };
+        paint(0..3, 2..8, [0.1, 0.1, 0.1]);
+        paint(6..11, 2..8, [1.0, 1.0, 1.0]);
+        paint(6..11, 20..26, [0.1, 0.2, 0.05]);
+        let view = View {
+            query,
+            empty,
+            empty_depth: vec![2.0; w * h],
+        };
+        let found = ResidualDetector::default().detect(&view);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!(
+            found[0]
+                .pixels
+                .iter()
+                .all(|p| (20..26).contains(&(p % w as u32)))
+        );
     }
 }

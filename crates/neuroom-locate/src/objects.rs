@@ -5,11 +5,14 @@
 //! behind a detected pixel, facing along its normal), or on top of an object already placed. Each is
 //! projected ([`crate::cloud::splat`]) and scored, pixel by pixel, by how much better its colours (after
 //! a per-channel gain: the light changed) explain the panorama than the empty room's colours do. The best hypothesis over all models is taken, refined
-//! by coordinate descent, its pixels marked explained, and the search goes on until no hypothesis
+//! by coordinate descent and put into the scene: its pixels then count with its own colour error and
+//! distance (a later object must explain them better to stand in front, and is hidden behind it), and
+//! its box is taken (later objects may not stand inside it); the search goes on until no hypothesis
 //! explains enough: objects absent from the panorama are not invented. Identical instances (one model,
 //! several ids) are placed one after another at distinct poses.
 
 use glam::{DVec3, Vec3};
+use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
 use neuroom_render::Scene;
@@ -17,7 +20,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::cloud::{Cloud, Silhouette, ZBuffer, splat};
-use crate::evidence::{Detection, View, dilate, residual};
+use crate::evidence::{Detection, View, dilate, relit, residual, room_gains};
 use crate::sphere::direction;
 
 /// Where a model may stand.
@@ -68,6 +71,10 @@ pub struct SearchConfig {
     pub allowed_margin: usize,
     /// Room misfit (metres, see `room_misfit`) at which a hypothesis's score is divided by e.
     pub wall_distance: f32,
+    /// Hypotheses refined before each placement (the best refined one is placed).
+    pub contenders: usize,
+    /// Of those, the most of one model.
+    pub contenders_per_model: usize,
     /// Least score of a placed object (sum of colour-error gains, sRGB units × pixels).
     pub min_score: f64,
     /// Least pixels a placed object must explain better than the empty room.
@@ -76,6 +83,12 @@ pub struct SearchConfig {
     pub min_precision: f64,
     /// Depth tolerance of the empty room's occlusion (metres).
     pub occlusion_tolerance: f32,
+    /// Fraction of a silhouette's rim pixel taken to be covered by the object.
+    pub rim_coverage: f64,
+    /// Boxes are shrunk by this fraction before objects are tested for standing inside one another.
+    pub contact_tolerance: f64,
+    /// Largest fraction of the smaller box two placed objects may share.
+    pub max_overlap: f64,
 }
 
 impl Default for SearchConfig {
@@ -89,10 +102,15 @@ impl Default for SearchConfig {
             unknown_error: 0.05,
             allowed_margin: 2,
             wall_distance: 0.15,
+            contenders: 6,
+            contenders_per_model: 2,
             min_score: 1.0,
             min_pixels: 25,
             min_precision: 0.5,
             occlusion_tolerance: 0.1,
+            rim_coverage: 0.5,
+            contact_tolerance: 0.1,
+            max_overlap: 0.1,
         }
     }
 }
@@ -108,7 +126,7 @@ pub struct Found {
     pub object_to_world: [[f64; 4]; 4],
     /// Its score (see [`SearchConfig::min_score`]).
     pub score: f64,
-    /// Pixels it explains better than the empty room.
+    /// Pixels it explains better than the scene before it was placed.
     pub explained: usize,
 }
 
@@ -116,6 +134,60 @@ pub struct Found {
 struct Hypothesis {
     model: usize,
     pose: Pose,
+}
+
+/// The scene as the objects placed so far make it: per pixel, the colour error of the nearest
+/// surface (the empty room's, or a placed object's where one is in front) and that surface's distance;
+/// and the boxes of the placed objects (the room's volume they occupy).
+struct Placed {
+    error: Vec<f32>,
+    depth: Vec<f32>,
+    boxes: Vec<OrientedBox>,
+}
+
+impl Placed {
+    /// The empty room.
+    fn nothing<F>(target: &Target<F>) -> Self {
+        Self {
+            error: target.room_error.clone(),
+            depth: target.view.empty_depth.clone(),
+            boxes: Vec::new(),
+        }
+    }
+
+    /// Whether `model` at `pose` would stand inside a placed object: the two boxes, shrunk by a
+    /// tolerance so that objects may touch (a lamp on a nightstand), share more than `max_overlap` of
+    /// the smaller one's volume.
+    fn collides(&self, model: &ObjectModel, pose: &Pose, config: &SearchConfig) -> bool {
+        let shrink = 1.0 - config.contact_tolerance;
+        let candidate = OrientedBox::new(*pose, 2.0 * shrink * model.half.as_dvec3());
+        self.boxes.iter().any(|b| {
+            let other = OrientedBox::new(b.pose, shrink * b.size);
+            let smaller = candidate.volume().min(other.volume()).max(1e-9);
+            candidate.intersection_volume(&other) / smaller > config.max_overlap
+        })
+    }
+
+    /// Puts `model` at `pose` into the scene: its visible pixels take its colour error and distance,
+    /// its box takes its volume.
+    fn add<F>(
+        &mut self,
+        target: &Target<F>,
+        model: &ObjectModel,
+        pose: &Pose,
+        config: &SearchConfig,
+    ) {
+        let mut buf = ZBuffer::default();
+        let sil = silhouette(target, &model.fine, pose, &self.depth, &mut buf);
+        let (_, gain) = score(target, self, &sil, config);
+        for ((&p, &c), &d) in sil.pixels.iter().zip(&sil.colors).zip(&sil.depths) {
+            let p = p as usize;
+            self.error[p] = object_error(target, p, c, &gain);
+            self.depth[p] = d;
+        }
+        self.boxes
+            .push(OrientedBox::new(*pose, 2.0 * model.half.as_dvec3()));
+    }
 }
 
 /// What the search compares against.
@@ -126,6 +198,8 @@ struct Target<'a, F> {
     camera: Pose,
     allowed: Vec<Vec<bool>>,
     tolerance: f32,
+    /// The empty room's colour per pixel under the query's global gain ([`crate::evidence::relit`]).
+    room_color: Vec<[f32; 3]>,
     /// Colour error of the empty room per pixel ([`crate::evidence::residual`]; a constant where it
     /// has no surface).
     room_error: Vec<f32>,
@@ -161,6 +235,10 @@ impl<'a, F: Field> Target<'a, F> {
                 .map(|a| dilate_n(a, view.width(), view.height(), config.allowed_margin))
                 .collect(),
             tolerance: config.occlusion_tolerance,
+            room_color: {
+                let gains = room_gains(view);
+                view.empty.data.iter().map(|e| relit(*e, gains)).collect()
+            },
             room_error: residual(view)
                 .iter()
                 .zip(&view.empty_depth)
@@ -193,7 +271,7 @@ impl<F> Clone for SearchInput<'_, F> {
 
 impl<F> Copy for SearchInput<'_, F> {}
 
-/// The score of model `m` at `pose` with nothing explained yet: (score, pixels it explains better than
+/// The score of model `m` at `pose` in the empty room: (score, pixels it explains better than
 /// the empty room, their fraction of its visible pixels), as the search ranks hypotheses.
 pub fn pose_score<F: Field>(
     input: &SearchInput<F>,
@@ -202,10 +280,10 @@ pub fn pose_score<F: Field>(
     config: &SearchConfig,
 ) -> (f64, usize, f64) {
     let target = Target::new(input, config);
-    let explained = vec![false; target.room_error.len()];
+    let placed = Placed::nothing(&target);
     let mut buf = ZBuffer::default();
     let model = &input.models[m];
-    hypothesis_score(&target, &explained, model, false, pose, &mut buf, config)
+    hypothesis_score(&target, &placed, model, false, pose, &mut buf, config)
 }
 
 /// Finds the objects of `input` and their initial poses.
@@ -329,7 +407,7 @@ fn wall_hypotheses<F: Field>(target: &Target<F>, m: usize, model: &ObjectModel) 
     out
 }
 
-/// Scores hypotheses against the whole detection (nothing explained yet) and keeps the best few of each
+/// Scores hypotheses in the empty room and keeps the best few of each
 /// model at distinct positions.
 fn prune<F: Field>(
     target: &Target<F>,
@@ -337,13 +415,13 @@ fn prune<F: Field>(
     hyps: Vec<Hypothesis>,
     config: &SearchConfig,
 ) -> Vec<Hypothesis> {
-    let explained = vec![false; target.room_error.len()];
+    let placed = Placed::nothing(target);
     let mut scored: Vec<(f64, Hypothesis)> = hyps
         .into_par_iter()
         .map_init(ZBuffer::default, |buf, h| {
             let s = hypothesis_score(
                 target,
-                &explained,
+                &placed,
                 &models[h.model],
                 true,
                 &h.pose,
@@ -369,66 +447,130 @@ fn prune<F: Field>(
     kept
 }
 
-fn silhouette<F>(target: &Target<F>, cloud: &Cloud, pose: &Pose, buf: &mut ZBuffer) -> Silhouette {
+/// What `cloud` at `pose` shows in front of the scene's surfaces at `depth`.
+fn silhouette<F>(
+    target: &Target<F>,
+    cloud: &Cloud,
+    pose: &Pose,
+    depth: &[f32],
+    buf: &mut ZBuffer,
+) -> Silhouette {
     splat(
         cloud,
         pose,
         &target.camera,
         target.view.width(),
         target.view.height(),
-        &target.view.empty_depth,
+        depth,
         target.tolerance,
         buf,
     )
 }
 
-/// (score, pixels it explains better than the empty room, fraction of its visible pixels that it
-/// explains better) of a silhouette, given the pixels already explained. The score is the sum over its
-/// visible unexplained pixels of the empty room's colour error minus the object's (its colours scaled by
-/// a per-channel gain fitted to those pixels: the light changed).
+/// How well a silhouette explains the panorama: (score, pixels it explains better than the scene
+/// so far, their fraction of its visible pixels), and the object's colour gain. The score is the sum
+/// over its visible pixels of the scene's colour error there (the empty room's, or a placed object's it
+/// would stand in front of) minus the object's, its colours scaled by a per-channel gain fitted to
+/// those pixels (the light changed).
 fn score<F>(
     target: &Target<F>,
-    explained: &[bool],
+    placed: &Placed,
     sil: &Silhouette,
     config: &SearchConfig,
-) -> (f64, usize, f64) {
-    let (mut qc, mut cc) = ([0.0f64; 3], [0.0f64; 3]);
-    let mut visible = 0usize;
-    for (&p, c) in sil.pixels.iter().zip(&sil.colors) {
-        if explained[p as usize] {
-            continue;
-        }
-        visible += 1;
-        let q = target.view.query.data[p as usize];
-        for k in 0..3 {
-            qc[k] += (q[k] * c[k]) as f64;
-            cc[k] += (c[k] * c[k]) as f64;
-        }
+) -> ((f64, usize, f64), [f64; 3]) {
+    // A rim pixel is modelled as a mix of the object and the room behind it.
+    let visible: Vec<(usize, Vec3, f64)> = sil
+        .pixels
+        .iter()
+        .zip(&sil.colors)
+        .zip(&sil.rim)
+        .map(|((p, c), rim)| {
+            let p = *p as usize;
+            let known = target.view.empty_depth[p] > 0.0;
+            let cover = if *rim && known {
+                config.rim_coverage
+            } else {
+                1.0
+            };
+            (p, *c, cover)
+        })
+        .collect();
+    if visible.is_empty() {
+        return ((0.0, 0, 0.0), [1.0; 3]);
     }
-    if visible == 0 {
-        return (0.0, 0, 0.0);
+    let (mut num, mut den) = ([0.0f64; 3], [0.0f64; 3]);
+    for &(p, c, a) in &visible {
+        let (q, r) = (target.view.query.data[p], target.room_color[p]);
+        for k in 0..3 {
+            num[k] += a * c[k] as f64 * (q[k] as f64 - (1.0 - a) * r[k] as f64);
+            den[k] += a * a * (c[k] * c[k]) as f64;
+        }
     }
     let gain: [f64; 3] = std::array::from_fn(|k| {
-        (qc[k] / cc[k].max(1e-9)).clamp(1.0 / config.max_gain, config.max_gain)
+        (num[k] / den[k].max(1e-9)).clamp(1.0 / config.max_gain, config.max_gain)
     });
     let (mut total, mut wins) = (0.0f64, 0usize);
-    for (&p, c) in sil.pixels.iter().zip(&sil.colors) {
-        let p = p as usize;
-        if explained[p] {
-            continue;
-        }
-        let q = target.view.query.data[p];
+    for &(p, c, a) in &visible {
+        let (q, r) = (target.view.query.data[p], target.room_color[p]);
         let e_obj = (0..3)
-            .map(|k| (q[k] as f64 - gain[k] * c[k] as f64).abs())
+            .map(|k| {
+                let predicted = a * gain[k] * c[k] as f64 + (1.0 - a) * r[k] as f64;
+                (q[k] as f64 - predicted).abs()
+            })
             .sum::<f64>()
             / 3.0;
-        let d = target.room_error[p] as f64 - e_obj;
+        let d = placed.error[p] as f64 - e_obj;
         total += d;
         if d > 0.0 {
             wins += 1;
         }
     }
-    (total, wins, wins as f64 / visible as f64)
+    ((total, wins, wins as f64 / visible.len() as f64), gain)
+}
+
+/// The colour error of an object with colour `c` under `gain` at pixel `p`.
+fn object_error<F>(target: &Target<F>, p: usize, c: Vec3, gain: &[f64; 3]) -> f32 {
+    let q = target.view.query.data[p];
+    (0..3)
+        .map(|k| (q[k] as f64 - gain[k] * c[k] as f64).abs())
+        .sum::<f64>() as f32
+        / 3.0
+}
+
+/// The pool's hypotheses worth refining next: the best-scoring ones that are accepted as they stand,
+/// at most [`SearchConfig::contenders_per_model`] of each model and [`SearchConfig::contenders`] in
+/// all (a coarse hypothesis of the right object may start farther from its optimum than a wrong one).
+fn contenders<F: Field>(
+    target: &Target<F>,
+    placed: &Placed,
+    models: &[ObjectModel],
+    pool: &[Hypothesis],
+    config: &SearchConfig,
+) -> Vec<usize> {
+    let mut scored: Vec<(usize, f64)> = pool
+        .par_iter()
+        .enumerate()
+        .map_init(ZBuffer::default, |buf, (k, h)| {
+            let model = &models[h.model];
+            (
+                k,
+                hypothesis_score(target, placed, model, true, &h.pose, buf, config),
+            )
+        })
+        .filter(|(_, s)| accepted(s, config))
+        .map(|(k, s)| (k, s.0))
+        .collect();
+    scored.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut per_model = vec![0usize; models.len()];
+    let mut out = Vec::new();
+    for (k, _) in scored {
+        let m = pool[k].model;
+        if out.len() < config.contenders && per_model[m] < config.contenders_per_model {
+            per_model[m] += 1;
+            out.push(k);
+        }
+    }
+    out
 }
 
 /// Takes the best hypothesis over all models while one explains enough, refining and committing each.
@@ -438,34 +580,44 @@ fn greedy<F: Field>(
     mut pool: Vec<Hypothesis>,
     config: &SearchConfig,
 ) -> Vec<Found> {
-    let mut explained = vec![false; target.room_error.len()];
+    let mut placed = Placed::nothing(target);
     let mut used = vec![0usize; models.len()];
     let mut found: Vec<Found> = Vec::new();
     loop {
         pool.retain(|h| used[h.model] < models[h.model].ids.len());
-        let best = pool
+        let contenders = contenders(target, &placed, models, &pool, config);
+        let refined: Vec<(usize, Pose, (f64, usize, f64))> = contenders
             .par_iter()
-            .enumerate()
-            .map_init(ZBuffer::default, |buf, (k, h)| {
-                let model = &models[h.model];
-                (
-                    k,
-                    hypothesis_score(target, &explained, model, true, &h.pose, buf, config),
-                )
+            .map(|&k| {
+                let h = &pool[k];
+                let (pose, s) = refine(target, &placed, &models[h.model], &h.pose, config);
+                (k, pose, s)
             })
-            .filter(|(_, s)| accepted(s, config))
-            .max_by(|a, b| a.1.0.total_cmp(&b.1.0));
-        let Some((k, _)) = best else { break };
-        let h = pool.swap_remove(k);
-        let model = &models[h.model];
-        let (pose, (s, tp, precision)) = refine(target, &explained, model, &h.pose, config);
-        if !accepted(&(s, tp, precision), config) {
+            .collect();
+        let best = refined
+            .iter()
+            .filter(|(_, _, s)| accepted(s, config))
+            .max_by(|a, b| a.2.0.total_cmp(&b.2.0))
+            .map(|(k, pose, s)| (*k, *pose, *s));
+        // Contenders that fail once refined leave the pool with the winner.
+        let mut drop = vec![false; pool.len()];
+        for (k, _, s) in &refined {
+            drop[*k] = !accepted(s, config);
+        }
+        let Some((k, pose, (s, tp, _))) = best else {
+            if contenders.is_empty() {
+                break;
+            }
+            let mut it = drop.iter();
+            pool.retain(|_| !*it.next().unwrap_or(&false));
             continue;
-        }
-        let mut buf = ZBuffer::default();
-        for p in silhouette(target, &model.fine, &pose, &mut buf).pixels {
-            explained[p as usize] = true;
-        }
+        };
+        let h = pool[k].clone();
+        drop[k] = true;
+        let mut it = drop.iter();
+        pool.retain(|_| !*it.next().unwrap_or(&false));
+        let model = &models[h.model];
+        placed.add(target, model, &pose, config);
         let id = model.ids[used[h.model]];
         used[h.model] += 1;
         found.push(Found {
@@ -488,16 +640,19 @@ fn greedy<F: Field>(
 #[allow(clippy::too_many_arguments)]
 fn hypothesis_score<F: Field>(
     target: &Target<F>,
-    explained: &[bool],
+    placed: &Placed,
     model: &ObjectModel,
     coarse: bool,
     pose: &Pose,
     buf: &mut ZBuffer,
     config: &SearchConfig,
 ) -> (f64, usize, f64) {
+    if placed.collides(model, pose, config) {
+        return (0.0, 0, 0.0);
+    }
     let cloud = if coarse { &model.coarse } else { &model.fine };
-    let sil = silhouette(target, cloud, pose, buf);
-    let mut s = score(target, explained, &sil, config);
+    let sil = silhouette(target, cloud, pose, &placed.depth, buf);
+    let (mut s, _) = score(target, placed, &sil, config);
     if s.0 > 0.0 {
         s.0 *= (-(room_misfit(target.room, model, pose) / config.wall_distance) as f64).exp();
     }
@@ -587,29 +742,33 @@ fn support_hypotheses<F: Field>(
 /// Coordinate descent on (x, y, z, yaw) with shrinking steps, scored with the fine cloud.
 fn refine<F: Field>(
     target: &Target<F>,
-    explained: &[bool],
+    placed: &Placed,
     model: &ObjectModel,
     start: &Pose,
     config: &SearchConfig,
 ) -> (Pose, (f64, usize, f64)) {
     let mut buf = ZBuffer::default();
     let mut eval =
-        |pose: &Pose| hypothesis_score(target, explained, model, false, pose, &mut buf, config);
+        |pose: &Pose| hypothesis_score(target, placed, model, false, pose, &mut buf, config);
     let mut pose = *start;
     let mut best = eval(&pose);
     let vertical = model.placement == Placement::Wall;
     for (step, turn) in [
-        (0.05, 10f64.to_radians()),
-        (0.02, 4f64.to_radians()),
-        (0.01, 1.5f64.to_radians()),
+        (0.1, 15f64.to_radians()),
+        (0.05, 8f64.to_radians()),
+        (0.02, 3f64.to_radians()),
+        (0.01, 1f64.to_radians()),
     ] {
         loop {
             let mut improved = false;
             let mut moves: Vec<Pose> = Vec::new();
-            for d in [-step, step] {
-                moves.push(shifted(&pose, DVec3::new(d, 0.0, 0.0)));
-                moves.push(shifted(&pose, DVec3::new(0.0, d, 0.0)));
-                if vertical {
+            for (dx, dy) in [(1.0, 0.0), (0.0, 1.0), (0.7, 0.7), (0.7, -0.7)] {
+                for d in [-step, step] {
+                    moves.push(shifted(&pose, DVec3::new(dx * d, dy * d, 0.0)));
+                }
+            }
+            if vertical {
+                for d in [-step, step] {
                     moves.push(shifted(&pose, DVec3::new(0.0, 0.0, d)));
                 }
             }
@@ -636,4 +795,46 @@ fn refine<F: Field>(
 
 fn shifted(pose: &Pose, d: DVec3) -> Pose {
     Pose::new(pose.rotation, pose.translation + d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(half: Vec3) -> ObjectModel {
+        ObjectModel {
+            ids: vec![1],
+            half,
+            coarse: Cloud::default(),
+            fine: Cloud::default(),
+            placement: Placement::Floor,
+            against_wall: false,
+        }
+    }
+
+    #[test]
+    fn objects_may_touch_but_not_stand_inside_one_another() {
+        let table = model(Vec3::new(0.3, 0.3, 0.25));
+        let lamp = model(Vec3::new(0.1, 0.1, 0.15));
+        let placed = Placed {
+            error: Vec::new(),
+            depth: Vec::new(),
+            boxes: vec![OrientedBox::new(
+                Pose::from_yaw_translation(0.3, DVec3::new(1.0, 1.0, 0.25)),
+                2.0 * table.half.as_dvec3(),
+            )],
+        };
+        let config = SearchConfig::default();
+        let on_top = Pose::from_yaw_translation(1.0, DVec3::new(1.1, 0.9, 0.65));
+        let beside = Pose::from_yaw_translation(0.0, DVec3::new(1.0, 1.52, 0.15));
+        let inside = Pose::from_yaw_translation(0.0, DVec3::new(1.2, 1.0, 0.3));
+        assert!(!placed.collides(&lamp, &on_top, &config));
+        assert!(!placed.collides(&lamp, &beside, &config));
+        assert!(placed.collides(&lamp, &inside, &config));
+        assert!(placed.collides(
+            &table,
+            &Pose::from_yaw_translation(0.0, DVec3::new(1.3, 1.0, 0.25)),
+            &config
+        ));
+    }
 }
