@@ -63,8 +63,10 @@ pub struct SearchConfig {
     pub keep: usize,
     /// Least distance between kept hypotheses of one model (metres).
     pub suppression: f32,
-    /// Largest per-channel gain between an object's learnt colours and the panorama (and its inverse).
+    /// Largest gain between an object's learnt colours and the panorama (and its inverse), overall.
     pub max_gain: f64,
+    /// Largest ratio of one channel's gain to the overall gain (and its inverse).
+    pub max_chroma: f64,
     /// Colour error assumed for the empty room where it has no surface (mean absolute sRGB).
     pub unknown_error: f32,
     /// Detections are grown by this many pixels before box centres are tested against them.
@@ -96,11 +98,12 @@ impl Default for SearchConfig {
         Self {
             grid: 0.15,
             headings: 12,
-            keep: 12,
+            keep: 30,
             suppression: 0.3,
             max_gain: 2.5,
+            max_chroma: 1.25,
             unknown_error: 0.05,
-            allowed_margin: 2,
+            allowed_margin: 4,
             wall_distance: 0.15,
             contenders: 6,
             contenders_per_model: 2,
@@ -300,7 +303,8 @@ pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> 
         };
         pool.extend(prune(&target, models, hyps, config));
     }
-    greedy(&target, models, pool, config)
+    let found = greedy(&target, models, pool.clone(), config);
+    revisit(&target, models, &pool, found, config)
 }
 
 /// Height of the floor under the camera.
@@ -320,13 +324,18 @@ fn world_point<F>(target: &Target<F>, pixel: usize) -> Option<DVec3> {
     })
 }
 
-/// Whether the box centre of `pose` projects into a pixel where model `m` may be.
-fn centre_allowed<F>(target: &Target<F>, m: usize, pose: &Pose) -> bool {
+/// Whether a point of the vertical axis of `model`'s box at `pose` (its centre, or a quarter or half
+/// of its height above or below) projects into a pixel where model `m` may be: the centre of an open
+/// object (a desk, a chair) may show the floor or wall through it.
+fn axis_allowed<F>(target: &Target<F>, m: usize, model: &ObjectModel, pose: &Pose) -> bool {
     let (w, h) = (target.view.width(), target.view.height());
-    let p = target.camera.inverse().transform_point(pose.translation);
-    crate::sphere::project(p, w, h).is_some_and(|pix| {
-        let (u, v) = (pix.x as usize % w, (pix.y as usize).min(h - 1));
-        target.allowed[m][v * w + u]
+    let to_camera = target.camera.inverse();
+    [0.0, 0.5, -0.5, 0.9, -0.9].iter().any(|f| {
+        let point = pose.translation + DVec3::Z * (f * model.half.z as f64);
+        crate::sphere::project(to_camera.transform_point(point), w, h).is_some_and(|pix| {
+            let (u, v) = (pix.x as usize % w, (pix.y as usize).min(h - 1));
+            target.allowed[m][v * w + u]
+        })
     })
 }
 
@@ -350,7 +359,7 @@ fn floor_hypotheses<F>(
                 z as f64,
             );
             let probe = Pose::new(glam::DMat3::IDENTITY, t);
-            if !centre_allowed(target, m, &probe) {
+            if !axis_allowed(target, m, model, &probe) {
                 continue;
             }
             for k in 0..config.headings {
@@ -506,9 +515,7 @@ fn score<F>(
             den[k] += a * a * (c[k] * c[k]) as f64;
         }
     }
-    let gain: [f64; 3] = std::array::from_fn(|k| {
-        (num[k] / den[k].max(1e-9)).clamp(1.0 / config.max_gain, config.max_gain)
-    });
+    let gain = limited_gain(std::array::from_fn(|k| num[k] / den[k].max(1e-9)), config);
     let (mut total, mut wins) = (0.0f64, 0usize);
     for &(p, c, a) in &visible {
         let (q, r) = (target.view.query.data[p], target.room_color[p]);
@@ -528,6 +535,17 @@ fn score<F>(
     ((total, wins, wins as f64 / visible.len() as f64), gain)
 }
 
+/// `gain` within the search's limits: its overall level (geometric mean) within
+/// [`SearchConfig::max_gain`] of 1, each channel within [`SearchConfig::max_chroma`] of that level (a
+/// light's colour tints every object alike; a strong tint is a wrong object fitted to the wrong place).
+fn limited_gain(gain: [f64; 3], config: &SearchConfig) -> [f64; 3] {
+    let gain = gain.map(|g| g.max(1e-3));
+    let level = (gain[0] * gain[1] * gain[2])
+        .cbrt()
+        .clamp(1.0 / config.max_gain, config.max_gain);
+    gain.map(|g| level * (g / level).clamp(1.0 / config.max_chroma, config.max_chroma))
+}
+
 /// The colour error of an object with colour `c` under `gain` at pixel `p`.
 fn object_error<F>(target: &Target<F>, p: usize, c: Vec3, gain: &[f64; 3]) -> f32 {
     let q = target.view.query.data[p];
@@ -537,7 +555,7 @@ fn object_error<F>(target: &Target<F>, p: usize, c: Vec3, gain: &[f64; 3]) -> f3
         / 3.0
 }
 
-/// The pool's hypotheses worth refining next: the best-scoring ones that are accepted as they stand,
+/// The pool's hypotheses worth refining next: the best-scoring ones (acceptance is judged once refined),
 /// at most [`SearchConfig::contenders_per_model`] of each model and [`SearchConfig::contenders`] in
 /// all (a coarse hypothesis of the right object may start farther from its optimum than a wrong one).
 fn contenders<F: Field>(
@@ -557,7 +575,7 @@ fn contenders<F: Field>(
                 hypothesis_score(target, placed, model, true, &h.pose, buf, config),
             )
         })
-        .filter(|(_, s)| accepted(s, config))
+        .filter(|(_, s)| s.0 > 0.0)
         .map(|(k, s)| (k, s.0))
         .collect();
     scored.sort_by(|a, b| b.1.total_cmp(&a.1));
@@ -632,6 +650,65 @@ fn greedy<F: Field>(
                 || o.pose.translation.distance(pose.translation) > config.suppression as f64
         });
         pool.extend(support_hypotheses(target, models, h.model, &pose, config));
+    }
+    found
+}
+
+/// Each placed object again, in the scene of all the others: later objects may explain its pixels
+/// better, or show it was put in the wrong place. Its pose is searched again from where it stands
+/// (also turned by a quarter and a half turn) and from the model's best hypotheses; it keeps the best
+/// refined pose, or leaves the scene when none is accepted any more.
+fn revisit<F: Field>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    pool: &[Hypothesis],
+    mut found: Vec<Found>,
+    config: &SearchConfig,
+) -> Vec<Found> {
+    let mut k = 0;
+    while k < found.len() {
+        let mut placed = Placed::nothing(target);
+        for (j, f) in found.iter().enumerate() {
+            if j != k {
+                let pose = Pose::from_rows_unchecked(&f.object_to_world);
+                placed.add(target, &models[f.model], &pose, config);
+            }
+        }
+        let m = found[k].model;
+        let model = &models[m];
+        let current = Pose::from_rows_unchecked(&found[k].object_to_world);
+        let mut starts: Vec<Hypothesis> = [0.0, 0.5, 1.0, 1.5]
+            .iter()
+            .map(|turn| Hypothesis {
+                model: m,
+                pose: Pose::from_yaw_translation(
+                    current.yaw() + turn * std::f64::consts::PI,
+                    current.translation,
+                ),
+            })
+            .collect();
+        let own: Vec<Hypothesis> = pool.iter().filter(|h| h.model == m).cloned().collect();
+        starts.extend(
+            contenders(target, &placed, models, &own, config)
+                .into_iter()
+                .map(|i| own[i].clone()),
+        );
+        let best = starts
+            .par_iter()
+            .map(|h| refine(target, &placed, model, &h.pose, config))
+            .filter(|(_, s)| accepted(s, config))
+            .max_by(|a, b| a.1.0.total_cmp(&b.1.0));
+        match best {
+            Some((pose, (s, tp, _))) => {
+                found[k].object_to_world = pose.to_rows();
+                found[k].score = s;
+                found[k].explained = tp;
+                k += 1;
+            }
+            None => {
+                found.remove(k);
+            }
+        }
     }
     found
 }
@@ -762,14 +839,26 @@ fn refine<F: Field>(
         loop {
             let mut improved = false;
             let mut moves: Vec<Pose> = Vec::new();
-            for (dx, dy) in [(1.0, 0.0), (0.0, 1.0), (0.7, 0.7), (0.7, -0.7)] {
+            // A wall object slides along its wall (its y axis) and up and down; others on the floor.
+            let axes = if vertical {
+                let along = pose.rotation * DVec3::Y;
+                [
+                    along,
+                    DVec3::Z,
+                    (along + DVec3::Z) * 0.7,
+                    (along - DVec3::Z) * 0.7,
+                ]
+            } else {
+                [
+                    DVec3::X,
+                    DVec3::Y,
+                    DVec3::new(0.7, 0.7, 0.0),
+                    DVec3::new(0.7, -0.7, 0.0),
+                ]
+            };
+            for axis in axes {
                 for d in [-step, step] {
-                    moves.push(shifted(&pose, DVec3::new(dx * d, dy * d, 0.0)));
-                }
-            }
-            if vertical {
-                for d in [-step, step] {
-                    moves.push(shifted(&pose, DVec3::new(0.0, 0.0, d)));
+                    moves.push(shifted(&pose, axis * d));
                 }
             }
             if !vertical {

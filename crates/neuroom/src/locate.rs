@@ -119,7 +119,7 @@ impl Default for LocateConfig {
         Self {
             database: DatabaseConfig::default(),
             localize: LocalizeConfig::default(),
-            object_width: 256,
+            object_width: 512,
             render: LocalizeConfig::default().render,
             empty_blur: 0.7,
             match_shading: true,
@@ -152,8 +152,8 @@ pub fn object_models(room: &Room, loaded: &RoomModels) -> anyhow::Result<Vec<Obj
                 .find(|o| entry.ids.contains(&o.id))
                 .with_context(|| format!("model `{}` draws no object of room.json", entry.name))?;
             let placement = placement(&first.relations, &model_of);
-            let against_wall =
-                placement == Placement::Floor && first.relations.iter().any(|r| r == "wall");
+            let against_wall = placement == Placement::Wall
+                || (placement == Placement::Floor && first.relations.iter().any(|r| r == "wall"));
             // The model's bounds carry a margin; the object's box is room.json's `size` (FORMAT.md).
             let bounds = Vec3::from(entry.bounds.max)
                 .abs()
