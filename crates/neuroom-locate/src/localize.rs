@@ -295,8 +295,10 @@ impl Rendered<'_> {
 /// with the keyframe as rendered.
 fn relit_round(view: &Rendered, config: &LocalizeConfig) -> Alignment {
     let shaded = match_shading(view.query, view.rgb, view.depth);
-    let plain = view.align(view.rgb, &view.at, &config.fine);
-    let relit = view.align(&shaded, &view.at, &config.fine);
+    let (plain, relit) = rayon::join(
+        || view.align(view.rgb, &view.at, &config.fine),
+        || view.align(&shaded, &view.at, &config.fine),
+    );
     let judge = AlignConfig {
         iterations: 0,
         orientation: Some(config.orientation_softness),
