@@ -292,9 +292,13 @@ impl Rendered<'_> {
 /// keyframe explains the query better (its score is the round's: it ranks finalists), but a gain that
 /// follows the normal can misplace edges where the light varies along a surface; so the pose is the
 /// one of the two whose edge orientations ([`FeatureMap::orientation`], blind to contrast) agree better
-/// with the keyframe as rendered.
+/// with the keyframe as rendered. Under a light like the captures' there is no re-shading, and one
+/// alignment.
 fn relit_round(view: &Rendered, config: &LocalizeConfig) -> Alignment {
     let shaded = match_shading(view.query, view.rgb, view.depth);
+    if shaded == *view.rgb {
+        return view.align(view.rgb, &view.at, &config.fine);
+    }
     let (plain, relit) = rayon::join(
         || view.align(view.rgb, &view.at, &config.fine),
         || view.align(&shaded, &view.at, &config.fine),
