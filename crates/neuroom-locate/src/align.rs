@@ -33,6 +33,10 @@ pub struct AlignConfig {
     /// Keyframe pixels whose surface normal's z is below this (surfaces facing down: the ceiling) are
     /// left out, for their look depends most on the lights; −1 keeps them all.
     pub min_normal_z: f64,
+    /// Align edge orientations ([`FeatureMap::orientation`] with this softness) instead of signed
+    /// log-luminance gradients: blind to an edge's contrast and its sign, which another lighting changes.
+    #[serde(default)]
+    pub orientation: Option<f32>,
 }
 
 impl Default for AlignConfig {
@@ -43,6 +47,17 @@ impl Default for AlignConfig {
             robust_factor: 2.0,
             upright: true,
             min_normal_z: -0.7,
+            orientation: None,
+        }
+    }
+}
+
+impl AlignConfig {
+    /// The features this alignment compares, from signed gradients.
+    fn features(&self, signed: FeatureMap) -> FeatureMap {
+        match self.orientation {
+            Some(softness) => signed.orientation(softness),
+            None => signed,
         }
     }
 }
@@ -85,9 +100,9 @@ pub fn align(
     let mut score = 0.0;
     for &sigma in &config.sigmas {
         let valid = trusted_pixels(keyframe, config.min_normal_z);
-        let kf = FeatureMap::masked(keyframe.rgb, &valid, sigma);
+        let kf = config.features(FeatureMap::masked(keyframe.rgb, &valid, sigma));
         let points = keyframe_points(keyframe, &kf, &valid);
-        let q = QueryMap::new(&FeatureMap::new(query, sigma));
+        let q = QueryMap::new(&config.features(FeatureMap::new(query, sigma)));
         pose = solve_scale(&points, &q, pose, config);
         score = correlation(&points, &q, &pose);
     }

@@ -5,11 +5,14 @@
 //!    orientations (robust to a lighting change); the best (position, heading) pairs of each are
 //!    candidates.
 //! 2. Each candidate is aligned in 6-DoF to its own database panorama (a free keyframe: colour + depth
-//!    are stored), which pulls it from the grid point to near the true camera; the best correlations
-//!    go on.
-//! 3. Each of them gets one round against a keyframe rendered from the background model at its pose;
-//!    the best correlation is refined a few more rounds at finer resolutions (each render removes the
-//!    parallax error of the last).
+//!    are stored) on edge orientations, which another lighting leaves in place; this pulls it from the
+//!    grid point to near the true camera. Candidates that meet at one pose count once; the best
+//!    correlations go on.
+//! 3. Each of them gets one round against a keyframe rendered from the background model at its pose and
+//!    re-shaded to the panorama's light ([`crate::shading::match_shading`]: the room under other lamps
+//!    changes each surface by a gain that follows its normal, which reverses some of the edges between
+//!    walls, floor and ceiling); the best correlation is refined a few more rounds at finer resolutions
+//!    (each render removes the parallax error of the last).
 
 use std::time::Instant;
 
@@ -18,12 +21,14 @@ use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
 use neuroom_render::{RenderConfig, Scene, render_image};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{AlignConfig, Alignment, Keyframe, align};
 use crate::database::Database;
 use crate::features::FeatureMap;
 use crate::plane::downsample_rgb;
+use crate::shading::match_shading;
 use crate::yaw::{YawMatch, best_yaws};
 
 /// Settings of [`localize`].
@@ -40,6 +45,13 @@ pub struct LocalizeConfig {
     pub orientation_softness: f32,
     /// Candidates refined against rendered keyframes, the best by their aligned correlation.
     pub finalists: usize,
+    /// Coarse alignments closer than this to a better one (metres, and the same in radians of
+    /// heading) found the same pose: only the better goes on, so that the finalists differ.
+    #[serde(default = "default_distinct")]
+    pub distinct: f64,
+    /// Re-shade each rendered keyframe to the panorama's light before aligning to it.
+    #[serde(default = "default_reshade")]
+    pub reshade: bool,
     /// Alignment against database panoramas.
     pub coarse: AlignConfig,
     /// Widths of the rendered keyframes, one refinement round each; every finalist gets the first
@@ -51,16 +63,27 @@ pub struct LocalizeConfig {
     pub render: RenderConfig,
 }
 
+fn default_distinct() -> f64 {
+    0.1
+}
+
+fn default_reshade() -> bool {
+    true
+}
+
 impl Default for LocalizeConfig {
     fn default() -> Self {
         Self {
             yaw_sigma: 1.0,
             yaws_per_entry: 2,
-            candidates: 6,
+            candidates: 10,
             orientation_softness: 0.5,
-            finalists: 4,
+            finalists: 8,
+            distinct: default_distinct(),
+            reshade: default_reshade(),
             coarse: AlignConfig {
                 sigmas: vec![4.0, 2.0, 1.0],
+                orientation: Some(0.5),
                 ..AlignConfig::default()
             },
             fine_widths: vec![128, 256, 256, 512],
@@ -109,7 +132,7 @@ pub fn localize<F: Field>(
     let search_score = matches.first().map_or(0.0, |m| m.score);
     let t1 = Instant::now();
     let mut coarse: Vec<Alignment> = matches
-        .iter()
+        .par_iter()
         .map(|m| {
             let entry = &db.entries[m.entry];
             let keyframe = Keyframe {
@@ -122,11 +145,11 @@ pub fn localize<F: Field>(
         })
         .collect();
     coarse.sort_by(|a, b| b.score.total_cmp(&a.score));
-    coarse.truncate(config.finalists.max(1));
+    let coarse = distinct(coarse, config.distinct, config.finalists.max(1));
     let t2 = Instant::now();
     let (first, rest) = config.fine_widths.split_first().unzip();
     let mut best = coarse
-        .iter()
+        .par_iter()
         .map(|c| {
             refine(
                 scene,
@@ -191,6 +214,26 @@ fn search(db: &Database, small: &RgbImage, config: &LocalizeConfig) -> Vec<YawMa
     found
 }
 
+/// The first `keep` of `sorted` (best first) that are not within `radius` (metres, and radians of
+/// heading) of an earlier one.
+fn distinct(sorted: Vec<Alignment>, radius: f64, keep: usize) -> Vec<Alignment> {
+    let mut out: Vec<Alignment> = Vec::with_capacity(keep);
+    for a in sorted {
+        let same = |b: &Alignment| {
+            let (pa, pb) = (&a.camera_to_world, &b.camera_to_world);
+            pa.translation.distance(pb.translation) < radius
+                && angle_between(pa.yaw(), pb.yaw()) < radius
+        };
+        if !out.iter().any(same) {
+            out.push(a);
+        }
+        if out.len() == keep {
+            break;
+        }
+    }
+    out
+}
+
 /// Absolute difference of two angles (radians), in [0, π].
 fn angle_between(a: f64, b: f64) -> f64 {
     let d = (a - b).rem_euclid(std::f64::consts::TAU);
@@ -207,17 +250,75 @@ fn refine<F: Field>(
 ) -> Alignment {
     let mut current = *start;
     for &width in widths {
-        let (rgb, depth) =
-            render_background(scene, &current.camera_to_world, width, &config.render);
-        let keyframe = Keyframe {
+        let at = current.camera_to_world;
+        let (rgb, depth) = render_background(scene, &at, width, &config.render);
+        let query = downsample_rgb(panorama, width, width / 2);
+        let view = Rendered {
             rgb: &rgb,
             depth: &depth,
-            camera_to_world: current.camera_to_world,
+            query: &query,
+            at,
         };
-        let query = downsample_rgb(panorama, width, width / 2);
-        current = align(&keyframe, &query, &current.camera_to_world, &config.fine);
+        current = if config.reshade {
+            relit_round(&view, config)
+        } else {
+            view.align(view.rgb, &at, &config.fine)
+        };
     }
     current
+}
+
+/// A keyframe rendered at `at` and the query at its size.
+struct Rendered<'a> {
+    rgb: &'a RgbImage,
+    depth: &'a [f32],
+    query: &'a RgbImage,
+    at: Pose,
+}
+
+impl Rendered<'_> {
+    /// Aligns the query to the keyframe's geometry coloured `rgb`, starting at `start`.
+    fn align(&self, rgb: &RgbImage, start: &Pose, config: &AlignConfig) -> Alignment {
+        let keyframe = Keyframe {
+            rgb,
+            depth: self.depth,
+            camera_to_world: self.at,
+        };
+        align(&keyframe, self.query, start, config)
+    }
+}
+
+/// One round against the keyframe as rendered and as re-shaded to the query's light. The re-shaded
+/// keyframe explains the query better (its score is the round's: it ranks finalists), but a gain that
+/// follows the normal can misplace edges where the light varies along a surface; so the pose is the
+/// one of the two whose edge orientations ([`FeatureMap::orientation`], blind to contrast) agree better
+/// with the keyframe as rendered. Under a light like the captures' there is no re-shading, and one
+/// alignment.
+fn relit_round(view: &Rendered, config: &LocalizeConfig) -> Alignment {
+    let shaded = match_shading(view.query, view.rgb, view.depth);
+    if shaded == *view.rgb {
+        return view.align(view.rgb, &view.at, &config.fine);
+    }
+    let (plain, relit) = rayon::join(
+        || view.align(view.rgb, &view.at, &config.fine),
+        || view.align(&shaded, &view.at, &config.fine),
+    );
+    let judge = AlignConfig {
+        iterations: 0,
+        orientation: Some(config.orientation_softness),
+        sigmas: config.fine.sigmas.last().copied().into_iter().collect(),
+        ..config.fine.clone()
+    };
+    let agreement = |a: &Alignment| view.align(view.rgb, &a.camera_to_world, &judge).score;
+    let pose = if agreement(&relit) > agreement(&plain) {
+        relit.camera_to_world
+    } else {
+        plain.camera_to_world
+    };
+    Alignment {
+        camera_to_world: pose,
+        score: relit.score.max(plain.score),
+    }
 }
 
 /// Colour and ray depth of `scene` (the empty room: a scene without objects) seen from `camera_to_world`
