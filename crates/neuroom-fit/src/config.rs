@@ -134,6 +134,22 @@ pub struct FitConfig {
     pub render: RenderConfig,
 }
 
+impl FitConfig {
+    /// Settings for initial poses that are already close, as `neuroom locate` gives them: no search
+    /// (locate has searched) and pose rates a fifth of the default, so that the photometric gradient
+    /// of a relit panorama refines the poses rather than drags them. Measured on the `studio` demo
+    /// room (IoU of the initial poses 75.0 %): 78.3 % after this fit, 58.1 % after the default one;
+    /// on a `bedroom` panorama (67.4 %): 62.0 % and 51.0 %.
+    pub fn refinement() -> Self {
+        Self {
+            search: None,
+            lr_translation: 2e-3,
+            lr_rotation: 2e-3,
+            ..Self::default()
+        }
+    }
+}
+
 impl Default for FitConfig {
     fn default() -> Self {
         Self {

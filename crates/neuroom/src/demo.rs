@@ -218,7 +218,7 @@ fn locate_panoramas(
     progress: &mut dyn DemoProgress,
 ) -> anyhow::Result<Vec<PathBuf>> {
     let dir = config.out.join("solved");
-    let fit = FitConfig::default();
+    let fit = FitConfig::refinement();
     let total = fit.pose_iterations + fit.appearance_iterations;
     let mut solved = Vec::new();
     for (panorama, _) in test_panoramas(room)?

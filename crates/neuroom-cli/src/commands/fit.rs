@@ -37,6 +37,10 @@ pub struct Args {
     /// Rays per iteration.
     #[arg(long)]
     rays: Option<usize>,
+    /// Skip the render-and-compare search of each object's position and yaw before stage 1 (when the
+    /// initial poses come from `neuroom locate`, which has searched already).
+    #[arg(long)]
+    no_search: bool,
 }
 
 /// Runs the command.
@@ -47,6 +51,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .appearance_iterations
         .unwrap_or(config.appearance_iterations);
     config.rays = args.rays.unwrap_or(config.rays);
+    if args.no_search {
+        config.search = None;
+    }
     let total = (config.pose_iterations + config.appearance_iterations) as u64;
     let mut bars = StageBars::new();
     let (outputs, report) = neuroom::fit::fit_panorama(

@@ -39,7 +39,7 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut fit = FitConfig::default();
+    let mut fit = FitConfig::refinement();
     fit.pose_iterations = args.pose_iterations.unwrap_or(fit.pose_iterations);
     fit.appearance_iterations = args
         .appearance_iterations
