@@ -209,6 +209,20 @@ fn eval_width(config: &DemoConfig) -> u32 {
     }
 }
 
+/// The holistic fit after locate: the refinement setting; `--quick` halves its iterations (its initial
+/// poses are already within about a centimetre, and the whole demo must stay under 3 minutes).
+fn fit_config(config: &DemoConfig) -> FitConfig {
+    let fit = FitConfig::refinement();
+    match config.size {
+        DemoSize::Quick => FitConfig {
+            pose_iterations: fit.pose_iterations / 2,
+            appearance_iterations: fit.appearance_iterations / 2,
+            ..fit
+        },
+        DemoSize::Full => fit,
+    }
+}
+
 /// Locates the first test panoramas (camera, objects, holistic fit) into `solved/`; already solved ones
 /// are kept.
 fn locate_panoramas(
@@ -218,7 +232,7 @@ fn locate_panoramas(
     progress: &mut dyn DemoProgress,
 ) -> anyhow::Result<Vec<PathBuf>> {
     let dir = config.out.join("solved");
-    let fit = FitConfig::refinement();
+    let fit = fit_config(config);
     let total = fit.pose_iterations + fit.appearance_iterations;
     let mut solved = Vec::new();
     for (panorama, _) in test_panoramas(room)?
