@@ -203,6 +203,7 @@ pub fn components(mask: &[bool], w: usize, h: usize) -> Vec<Vec<u32>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::ops::Range;
 
     #[test]
     fn components_wrap_around_the_seam() {
@@ -221,20 +222,31 @@ mod tests {
         );
     }
 
+    /// A `w × h` image of one grey level.
+    fn grey(w: usize, h: usize, level: f32) -> RgbImage {
+        RgbImage {
+            width: w as u32,
+            height: h as u32,
+            data: vec![[level; 3]; w * h],
+        }
+    }
+
+    /// Sets the block `rows × cols` of `image` to `c`.
+    fn paint(image: &mut RgbImage, rows: Range<usize>, cols: Range<usize>, c: [f32; 3]) {
+        let w = image.width as usize;
+        for v in rows {
+            for u in cols.clone() {
+                image.data[v * w + u] = c;
+            }
+        }
+    }
+
     #[test]
     fn a_dark_object_on_a_grey_wall_is_detected_under_a_changed_exposure() {
         let (w, h) = (32usize, 16usize);
-        let empty = RgbImage {
-            width: w as u32,
-            height: h as u32,
-            data: vec![[0.6, 0.6, 0.6]; w * h],
-        };
+        let empty = grey(w, h, 0.6);
         let mut query = empty.map(|c| c.map(|x| x * 0.8));
-        for v in 6..11 {
-            for u in 10..16 {
-                query.data[v * w + u] = [0.1, 0.2, 0.05];
-            }
-        }
+        paint(&mut query, 6..11, 10..16, [0.1, 0.2, 0.05]);
         let view = View {
             query,
             empty,
@@ -250,23 +262,11 @@ mod tests {
     fn light_sources_and_the_ceiling_give_no_evidence() {
         // A sphere of radius 2 around the camera: its top rows face down like a ceiling.
         let (w, h) = (32usize, 16usize);
-        let empty = RgbImage {
-            width: w as u32,
-            height: h as u32,
-            data: vec![[0.5, 0.5, 0.5]; w * h],
-        };
+        let empty = grey(w, h, 0.5);
         let mut query = empty.clone();
-        let mut paint =
-            |rows: std::ops::Range<usize>, cols: std::ops::Range<usize>, c: [f32; 3]| {
-                for v in rows {
-                    for u in cols.clone() {
-                        query.data[v * w + u] = c;
-                    }
-                }
-            };
-        paint(0..3, 2..8, [0.1, 0.1, 0.1]);
-        paint(6..11, 2..8, [1.0, 1.0, 1.0]);
-        paint(6..11, 20..26, [0.1, 0.2, 0.05]);
+        paint(&mut query, 0..3, 2..8, [0.1, 0.1, 0.1]);
+        paint(&mut query, 6..11, 2..8, [1.0, 1.0, 1.0]);
+        paint(&mut query, 6..11, 20..26, [0.1, 0.2, 0.05]);
         let view = View {
             query,
             empty,

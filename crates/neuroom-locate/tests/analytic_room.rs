@@ -7,7 +7,7 @@ use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_field::{AnalyticColor, AnalyticField, CodeSet};
 use neuroom_locate::cloud::surface_cloud;
-use neuroom_locate::evidence::{Detector, ResidualDetector, View};
+use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View};
 use neuroom_locate::objects::{
     ObjectModel, Placement, SearchConfig, SearchInput, find_objects, pose_score,
 };
@@ -294,25 +294,52 @@ fn object_view(camera: &Pose, truth: &Pose) -> (Scene<AnalyticField>, View) {
     (empty, view)
 }
 
+/// The red box standing at a known pose, seen from a known camera, with the detections in its view.
+struct PlacedBox {
+    camera: Pose,
+    truth: Pose,
+    empty: Scene<AnalyticField>,
+    view: View,
+    detections: Vec<Detection>,
+    models: Vec<ObjectModel>,
+}
+
+impl PlacedBox {
+    fn new() -> Self {
+        let camera = Pose::new(DMat3::IDENTITY, DVec3::new(1.5, 1.4, 1.4));
+        let truth = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, BOX_A.z as f64));
+        let (empty, view) = object_view(&camera, &truth);
+        let detections = ResidualDetector::default().detect(&view);
+        Self {
+            camera,
+            truth,
+            empty,
+            view,
+            detections,
+            models: object_models(),
+        }
+    }
+
+    fn input(&self) -> SearchInput<'_, AnalyticField> {
+        SearchInput {
+            empty: &self.empty,
+            view: &self.view,
+            camera_to_world: self.camera,
+            detections: &self.detections,
+            models: &self.models,
+        }
+    }
+}
+
 #[test]
 fn the_present_object_is_placed_and_the_absent_one_is_not_invented() {
-    let camera = Pose::new(DMat3::IDENTITY, DVec3::new(1.5, 1.4, 1.4));
-    let truth = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, BOX_A.z as f64));
-    let (empty, view) = object_view(&camera, &truth);
-    let detections = ResidualDetector::default().detect(&view);
-    assert!(!detections.is_empty());
-    let models = object_models();
-    let input = SearchInput {
-        empty: &empty,
-        view: &view,
-        camera_to_world: camera,
-        detections: &detections,
-        models: &models,
-    };
-    let found = find_objects(&input, &SearchConfig::default());
+    let scene = PlacedBox::new();
+    assert!(!scene.detections.is_empty());
+    let found = find_objects(&scene.input(), &SearchConfig::default());
     assert_eq!(found.len(), 1, "{found:?}");
     assert_eq!(found[0].id, 1);
     let pose = Pose::from_rows_unchecked(&found[0].object_to_world);
+    let truth = scene.truth;
     let position = pose.translation.distance(truth.translation);
     // The box looks the same turned by 180°.
     let yaw = (pose.yaw() - truth.yaw()).rem_euclid(std::f64::consts::PI);
@@ -323,18 +350,9 @@ fn the_present_object_is_placed_and_the_absent_one_is_not_invented() {
 
 #[test]
 fn the_true_pose_scores_above_a_turned_or_shifted_one() {
-    let camera = Pose::new(DMat3::IDENTITY, DVec3::new(1.5, 1.4, 1.4));
-    let truth = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, BOX_A.z as f64));
-    let (empty, view) = object_view(&camera, &truth);
-    let detections = ResidualDetector::default().detect(&view);
-    let models = object_models();
-    let input = SearchInput {
-        empty: &empty,
-        view: &view,
-        camera_to_world: camera,
-        detections: &detections,
-        models: &models,
-    };
+    let scene = PlacedBox::new();
+    let input = scene.input();
+    let truth = scene.truth;
     let config = SearchConfig::default();
     let score = |pose: &Pose| pose_score(&input, 0, pose, &config);
     let best = score(&truth);
