@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::cloud::{Cloud, Silhouette, ZBuffer, splat};
-use crate::evidence::{Detection, View, dilate, relit, residual, room_gains};
+use crate::evidence::{Detection, View, dilate, relit, room_gains};
 use crate::sphere::direction;
 
 /// Where a model may stand.
@@ -203,8 +203,8 @@ struct Target<'a, F> {
     tolerance: f32,
     /// The empty room's colour per pixel under the query's global gain ([`crate::evidence::relit`]).
     room_color: Vec<[f32; 3]>,
-    /// Colour error of the empty room per pixel ([`crate::evidence::residual`]; a constant where it
-    /// has no surface).
+    /// Colour error of the empty room per pixel (mean absolute difference from `room_color`, as
+    /// [`crate::evidence::residual`]; a constant where it has no surface).
     room_error: Vec<f32>,
 }
 
@@ -218,6 +218,8 @@ impl<'a, F: Field> Target<'a, F> {
             models,
         } = *input;
         let models = models.len();
+        let gains = room_gains(view);
+        let room_color: Vec<[f32; 3]> = view.empty.data.iter().map(|e| relit(*e, gains)).collect();
         let n = view.width() * view.height();
         let mut allowed = vec![vec![false; n]; models];
         for d in detections {
@@ -238,15 +240,19 @@ impl<'a, F: Field> Target<'a, F> {
                 .map(|a| dilate_n(a, view.width(), view.height(), config.allowed_margin))
                 .collect(),
             tolerance: config.occlusion_tolerance,
-            room_color: {
-                let gains = room_gains(view);
-                view.empty.data.iter().map(|e| relit(*e, gains)).collect()
-            },
-            room_error: residual(view)
+            room_error: room_color
                 .iter()
+                .zip(&view.query.data)
                 .zip(&view.empty_depth)
-                .map(|(r, d)| if *d > 0.0 { *r } else { config.unknown_error })
+                .map(|((r, q), d)| {
+                    if *d > 0.0 {
+                        (0..3).map(|k| (q[k] - r[k]).abs()).sum::<f32>() / 3.0
+                    } else {
+                        config.unknown_error
+                    }
+                })
                 .collect(),
+            room_color,
         }
     }
 }
@@ -604,6 +610,9 @@ fn greedy<F: Field>(
     loop {
         pool.retain(|h| used[h.model] < models[h.model].ids.len());
         let contenders = contenders(target, &placed, models, &pool, config);
+        if contenders.is_empty() {
+            break;
+        }
         let refined: Vec<(usize, Pose, (f64, usize, f64))> = contenders
             .par_iter()
             .map(|&k| {
@@ -616,40 +625,36 @@ fn greedy<F: Field>(
             .iter()
             .filter(|(_, _, s)| accepted(s, config))
             .max_by(|a, b| a.2.0.total_cmp(&b.2.0))
-            .map(|(k, pose, s)| (*k, *pose, *s));
+            .map(|(k, pose, s)| (*k, pool[*k].model, *pose, *s));
         // Contenders that fail once refined leave the pool with the winner.
         let mut drop = vec![false; pool.len()];
         for (k, _, s) in &refined {
             drop[*k] = !accepted(s, config);
         }
-        let Some((k, pose, (s, tp, _))) = best else {
-            if contenders.is_empty() {
-                break;
-            }
-            let mut it = drop.iter();
-            pool.retain(|_| !*it.next().unwrap_or(&false));
+        if let Some((k, ..)) = best {
+            drop[k] = true;
+        }
+        let mut dropped = drop.into_iter();
+        pool.retain(|_| !dropped.next().unwrap_or(false));
+        let Some((_, m, pose, (s, tp, _))) = best else {
             continue;
         };
-        let h = pool[k].clone();
-        drop[k] = true;
-        let mut it = drop.iter();
-        pool.retain(|_| !*it.next().unwrap_or(&false));
-        let model = &models[h.model];
+        let model = &models[m];
         placed.add(target, model, &pose, config);
-        let id = model.ids[used[h.model]];
-        used[h.model] += 1;
+        let id = model.ids[used[m]];
+        used[m] += 1;
         found.push(Found {
-            model: h.model,
+            model: m,
             id,
             object_to_world: pose.to_rows(),
             score: s,
             explained: tp,
         });
         pool.retain(|o| {
-            o.model != h.model
+            o.model != m
                 || o.pose.translation.distance(pose.translation) > config.suppression as f64
         });
-        pool.extend(support_hypotheses(target, models, h.model, &pose, config));
+        pool.extend(support_hypotheses(target, models, m, &pose, config));
     }
     found
 }
