@@ -2,9 +2,12 @@
 //! render-and-compare for pose hypotheses (thousands per second where a neural render takes seconds).
 //!
 //! Points come from a grid over the object's box, kept near the zero level of its SDF and snapped onto
-//! it along the gradient; colours are the field's colour seen along the inward normal.
+//! it along the gradient; colours are the field's colour seen along the inward normal. A field learned
+//! from a few views may hold surfaces where its captures saw through (floaters); [`carve`] removes
+//! them with the captures' depth.
 
 use glam::{Mat3, Vec3};
+use neuroom_core::camera::{CameraModel, Pinhole};
 use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, Field, FieldOutput, Query};
 
@@ -68,6 +71,68 @@ pub fn surface_cloud<F: Field>(field: &F, half: Vec3, spacing: f32, codes: CodeS
         points,
         normals,
         spacing,
+    }
+}
+
+/// What one capture frame knows of a model's free space: along the ray of each pixel, no surface of
+/// the model lies nearer than `free` (metres from the camera centre; infinite where the frame saw the
+/// ray pass the model by, 0 where it does not know).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FreeSpace {
+    /// Intrinsics of the frame.
+    pub camera: Pinhole,
+    /// Camera (OpenGL convention) to the model's frame.
+    pub camera_to_model: Pose,
+    /// Free distance per pixel, row-major.
+    pub free: Vec<f32>,
+}
+
+impl FreeSpace {
+    /// Whether `point` (model frame) lies in space this frame saw empty by more than `tolerance`,
+    /// at its pixel and all eight neighbours (so that points on the model's rim stay).
+    fn sees_through(&self, point: Vec3, tolerance: f32) -> bool {
+        let local = self
+            .camera_to_model
+            .inverse()
+            .transform_point(point.as_dvec3());
+        let Some((pixel, _)) = self.camera.project(local) else {
+            return false;
+        };
+        if !self.camera.in_image(pixel) {
+            return false;
+        }
+        let distance = local.length() as f32;
+        let (w, h) = (self.camera.width as i64, self.camera.height as i64);
+        let (u, v) = (pixel.x as i64, pixel.y as i64);
+        (-1..=1).all(|dv| {
+            (-1..=1).all(|du| {
+                let (x, y) = (u + du, v + dv);
+                (0..w).contains(&x)
+                    && (0..h).contains(&y)
+                    && self.free[(y * w + x) as usize] > distance + tolerance
+            })
+        })
+    }
+}
+
+/// `cloud` without the points that some frame of `views` saw through by more than `tolerance` (metres).
+pub fn carve(cloud: Cloud, views: &[FreeSpace], tolerance: f32) -> Cloud {
+    let keep: Vec<bool> = cloud
+        .points
+        .iter()
+        .map(|p| !views.iter().any(|v| v.sees_through(*p, tolerance)))
+        .collect();
+    let pick = |xs: Vec<Vec3>| -> Vec<Vec3> {
+        xs.into_iter()
+            .zip(&keep)
+            .filter_map(|(x, k)| k.then_some(x))
+            .collect()
+    };
+    Cloud {
+        points: pick(cloud.points),
+        normals: pick(cloud.normals),
+        colors: pick(cloud.colors),
+        spacing: cloud.spacing,
     }
 }
 
@@ -156,6 +221,10 @@ pub fn splat(
             }
         }
     }
+    // Twice: where a gap row crosses a gap column, the first pass leaves the crossing pixel.
+    for _ in 0..2 {
+        fill_gaps(buffer, width, height, room_depth, tolerance);
+    }
     let mut out = Silhouette::default();
     for &i in &buffer.touched {
         let i = i as usize;
@@ -177,10 +246,66 @@ pub fn splat(
     out
 }
 
+/// Depths of two neighbours across a gap may differ by this fraction and still close it.
+const GAP_DEPTH_RATIO: f32 = 0.1;
+
+/// Covers the one-pixel gaps between splatted points: an uncovered pixel whose two horizontal or two
+/// vertical neighbours are covered at about the same depth takes the nearer neighbour's depth and
+/// colour (unless the scene's surface hides it). A cloud's grid points lie about a pixel apart at the
+/// distance where their footprint shrinks to one pixel, and the room showed through the holes.
+fn fill_gaps(
+    buffer: &mut ZBuffer,
+    width: usize,
+    height: usize,
+    room_depth: &[f32],
+    tolerance: f32,
+) {
+    let depth = &buffer.depth;
+    let across = |a: usize, b: usize| -> Option<usize> {
+        let (da, db) = (depth[a], depth[b]);
+        (da.is_finite() && db.is_finite() && (da - db).abs() <= GAP_DEPTH_RATIO * da.min(db))
+            .then_some(if da <= db { a } else { b })
+    };
+    let mut fills: Vec<(usize, usize)> = Vec::new();
+    for &i in &buffer.touched {
+        let (u, v) = (i as usize % width, i as usize / width);
+        let left = v * width + (u + width - 1) % width;
+        let right = v * width + (u + 1) % width;
+        let up = (v > 0).then(|| i as usize - width);
+        let down = (v + 1 < height).then(|| i as usize + width);
+        for j in [Some(left), Some(right), up, down].into_iter().flatten() {
+            if depth[j].is_finite() {
+                continue;
+            }
+            let (ju, jv) = (j % width, j / width);
+            let horizontal = across(
+                jv * width + (ju + width - 1) % width,
+                jv * width + (ju + 1) % width,
+            );
+            let vertical = (jv > 0 && jv + 1 < height)
+                .then(|| across(j - width, j + width))
+                .flatten();
+            if let Some(source) = horizontal.or(vertical) {
+                let wall = room_depth[j];
+                if wall <= 0.0 || depth[source] <= wall + tolerance {
+                    fills.push((j, source));
+                }
+            }
+        }
+    }
+    for (j, source) in fills {
+        if buffer.depth[j].is_infinite() {
+            buffer.depth[j] = buffer.depth[source];
+            buffer.color[j] = buffer.color[source];
+            buffer.touched.push(j as u32);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::DVec3;
+    use glam::{DVec2, DVec3};
     use neuroom_field::{AnalyticColor, AnalyticField};
 
     fn cube() -> AnalyticField {
@@ -199,6 +324,59 @@ mod tests {
             assert!((p.abs().max_element() - 0.25).abs() < 0.02, "{p}");
             assert!((c.x - 0.8).abs() < 1e-5);
         }
+    }
+
+    /// A frame on the −x side looking along +x at a wall 1 m ahead, with a square hole through which it
+    /// saw nothing: points in front of the wall are free space, points in the hole's line of sight too.
+    fn frame_with_hole() -> FreeSpace {
+        let camera = Pinhole::new(64, 64, 32.0, 32.0, 32.0, 32.0);
+        // OpenGL camera looking along +x: camera −z = world +x, camera +y = world +z.
+        let camera_to_model = Pose::from_rows_unchecked(&[
+            [0.0, 0.0, -1.0, -1.0],
+            [-1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ]);
+        let free = (0..64 * 64)
+            .map(|i| {
+                let (u, v) = (i % 64, i / 64);
+                if (40..56).contains(&u) && (24..40).contains(&v) {
+                    f32::INFINITY
+                } else {
+                    // z-depth 1 m turned into the distance along the ray.
+                    let d = camera.direction(DVec2::new(u as f64 + 0.5, v as f64 + 0.5));
+                    (1.0 / -d.z) as f32
+                }
+            })
+            .collect();
+        FreeSpace {
+            camera,
+            camera_to_model,
+            free,
+        }
+    }
+
+    #[test]
+    fn carving_removes_points_the_captures_saw_through_and_keeps_the_rest() {
+        let view = frame_with_hole();
+        let points = vec![
+            Vec3::new(0.0, 0.0, 0.0),   // on the wall, centre: kept
+            Vec3::new(-0.5, 0.0, 0.0),  // half-way to the wall: carved
+            Vec3::new(0.5, 0.0, 0.0),   // behind the wall: unseen, kept
+            Vec3::new(0.5, -0.75, 0.0), // behind the wall, seen through the hole: carved
+            Vec3::new(0.0, 0.0, -5.0),  // outside the frame: kept
+        ];
+        let n = points.len();
+        let cloud = Cloud {
+            normals: vec![Vec3::X; n],
+            colors: (0..n).map(|k| Vec3::splat(k as f32)).collect(),
+            points,
+            spacing: 0.05,
+        };
+        let carved = carve(cloud, &[view], 0.02);
+        let kept: Vec<f32> = carved.colors.iter().map(|c| c.x).collect();
+        assert_eq!(kept, vec![0.0, 2.0, 4.0]);
+        assert_eq!(carved.points.len(), carved.normals.len());
     }
 
     #[test]
@@ -221,6 +399,50 @@ mod tests {
         let near = vec![1.0; w * h];
         let hidden = splat(&cloud, &object, &camera, w, h, &near, 0.1, &mut buffer);
         assert!(hidden.pixels.is_empty());
+    }
+
+    #[test]
+    fn a_plane_of_points_a_little_over_a_pixel_apart_shows_without_holes() {
+        // 3 cm apart at 2 m: 1.2 pixels of a 512-wide panorama, each point one pixel wide.
+        let (n, spacing) = (21, 0.03);
+        let points: Vec<Vec3> = (0..n * n)
+            .map(|k| {
+                let (a, b) = ((k % n) as f32, (k / n) as f32);
+                Vec3::new(0.0, (a - 10.0) * spacing, (b - 10.0) * spacing)
+            })
+            .collect();
+        let cloud = Cloud {
+            normals: vec![-Vec3::X; points.len()],
+            colors: vec![Vec3::ONE; points.len()],
+            points,
+            spacing,
+        };
+        let (w, h) = (512, 256);
+        let object = Pose::from_yaw_translation(0.0, DVec3::new(2.0, 0.0, 0.0));
+        let far = vec![10.0; w * h];
+        let seen = splat(
+            &cloud,
+            &object,
+            &Pose::IDENTITY,
+            w,
+            h,
+            &far,
+            0.1,
+            &mut ZBuffer::default(),
+        );
+        let (us, vs): (Vec<usize>, Vec<usize>) = seen
+            .pixels
+            .iter()
+            .map(|&p| (p as usize % w, p as usize / w))
+            .unzip();
+        let (u0, u1) = (*us.iter().min().unwrap(), *us.iter().max().unwrap());
+        let (v0, v1) = (*vs.iter().min().unwrap(), *vs.iter().max().unwrap());
+        let holes = (v0 + 1..v1)
+            .flat_map(|v| (u0 + 1..u1).map(move |u| (v * w + u) as u32))
+            .filter(|p| !seen.pixels.contains(p))
+            .count();
+        assert!(u1 - u0 > 20, "{u0}..{u1}");
+        assert_eq!(holes, 0, "{holes} holes in {}..{u1} × {v0}..{v1}", u0);
     }
 
     #[test]

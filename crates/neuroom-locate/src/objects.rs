@@ -844,17 +844,19 @@ fn refine<F: Field>(
         loop {
             let mut improved = false;
             let mut moves: Vec<Pose> = Vec::new();
-            // A wall object slides along its wall (its y axis) and up and down; others on the floor.
+            // A wall object slides along its wall (its y axis), up and down, and to and from the
+            // wall (its x axis: its hypothesis stands where the learned wall is); others on the floor.
             let axes = if vertical {
                 let along = pose.rotation * DVec3::Y;
-                [
+                vec![
                     along,
                     DVec3::Z,
                     (along + DVec3::Z) * 0.7,
                     (along - DVec3::Z) * 0.7,
+                    pose.rotation * DVec3::X,
                 ]
             } else {
-                [
+                vec![
                     DVec3::X,
                     DVec3::Y,
                     DVec3::new(0.7, 0.7, 0.0),

@@ -235,12 +235,7 @@ impl Dataset {
         options: &LoadOptions,
     ) -> Result<Self, FormatError> {
         let light_names = light_names(capture);
-        let views = capture
-            .frames
-            .par_iter()
-            .enumerate()
-            .map(|(i, f)| load_view(capture, f, i, role, &light_names))
-            .collect::<Result<Vec<_>, _>>()?;
+        let views = load_views(capture, role)?;
         let observed = observed_bounds(&views);
         let keep = |o: Vec3, d: Vec3| options.bounds.is_none_or(|b| b.intersect(o, d).is_some());
         let mut data = Dataset {
@@ -270,6 +265,17 @@ impl Dataset {
     pub fn origin(&self, i: usize) -> Vec3 {
         Vec3::from(self.origins[self.rays.frame[i] as usize])
     }
+}
+
+/// Reads every frame of `capture` (in parallel) as a whole view of `role`'s model.
+pub fn load_views(capture: &Capture, role: &Role) -> Result<Vec<View>, FormatError> {
+    let light_names = light_names(capture);
+    capture
+        .frames
+        .par_iter()
+        .enumerate()
+        .map(|(i, f)| load_view(capture, f, i, role, &light_names))
+        .collect()
 }
 
 /// The distinct lighting names of a capture's frames in order of first appearance (`capture` for frames

@@ -7,13 +7,15 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use glam::Vec3;
-use neuroom_core::formats::{self, ArrangedObject, Arrangement, Room, read_rgb, read_room};
+use neuroom_core::formats::{
+    self, ArrangedObject, Arrangement, Room, RoomObject, read_rgb, read_room,
+};
 use neuroom_core::image::RgbImage;
 use neuroom_core::metrics::ArrangementScore;
 use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
-use neuroom_locate::cloud::surface_cloud;
+use neuroom_locate::cloud::{FreeSpace, carve, surface_cloud};
 use neuroom_locate::evidence::{Detector, ResidualDetector, View};
 use neuroom_locate::objects::{
     Found, ObjectModel, Placement, SearchConfig, SearchInput, find_objects,
@@ -26,6 +28,7 @@ use neuroom_locate::{
 };
 use neuroom_render::RenderConfig;
 use neuroom_render::scene::{Background, Model, Scene};
+use neuroom_train::dataset::{PixelClass, Role, load_views};
 use neuroom_train::{ModelKind, RoomModels};
 use serde::{Deserialize, Serialize};
 
@@ -129,6 +132,9 @@ impl Default for LocateConfig {
     }
 }
 
+/// How far beyond an object's box (room.json `size`) its surface clouds reach (metres).
+const CLOUD_MARGIN: f32 = 0.01;
+
 /// Searchable object models: one per object model of the manifest, with coloured surface clouds and
 /// where it may stand from room.json's relation hints (`on:NAME`, else `floor`, else `wall`; floor by
 /// default).
@@ -160,17 +166,59 @@ pub fn object_models(room: &Room, loaded: &RoomModels) -> anyhow::Result<Vec<Obj
                 .max(Vec3::from(entry.bounds.min).abs());
             let half = (0.5 * first.size).as_vec3();
             let spacing = (2.0 * bounds.max_element() / 25.0).clamp(0.02, 0.06);
+            // Surfaces the field holds outside the object's box are floaters of training, not the
+            // object: the clouds stop a little beyond the box.
+            let extent = (half + CLOUD_MARGIN).min(bounds);
             let field = &loaded.fields[k];
+            let free = free_space(room, first, &entry.ids)?;
+            let cloud = |spacing: f32| {
+                let cloud = surface_cloud(field, extent, spacing, CodeSet::default());
+                carve(cloud, &free, CARVE_TOLERANCE)
+            };
             Ok(ObjectModel {
                 ids: entry.ids.clone(),
                 half,
-                coarse: surface_cloud(field, bounds, spacing, CodeSet::default()),
-                fine: surface_cloud(field, bounds, 0.6 * spacing, CodeSet::default()),
+                coarse: cloud(spacing),
+                fine: cloud(0.6 * spacing),
                 placement,
                 against_wall,
             })
         })
         .collect()
+}
+
+/// How far in front of what a capture frame saw a cloud point must lie to be carved away (metres).
+const CARVE_TOLERANCE: f32 = 0.02;
+
+/// What the frames of `object`'s capture saw of its model's free space (model frame), for [`carve`];
+/// none when the room folder holds no such capture (models shipped without their captures).
+fn free_space(room: &Room, object: &RoomObject, ids: &[u16]) -> anyhow::Result<Vec<FreeSpace>> {
+    let dir = room.capture_dir(&object.capture);
+    if !dir.join(formats::transforms::TRANSFORMS_FILE).is_file() {
+        return Ok(Vec::new());
+    }
+    let capture = formats::read_capture(&dir)?;
+    let role = Role::Object {
+        ids: ids.to_vec(),
+        capture_to_object: object.capture_to_object,
+    };
+    Ok(load_views(&capture, &role)?
+        .into_iter()
+        .map(|view| FreeSpace {
+            camera: view.camera,
+            camera_to_model: view.camera_to_model,
+            free: view
+                .class
+                .iter()
+                .zip(&view.distance)
+                .map(|(class, d)| match class {
+                    PixelClass::Empty => f32::INFINITY,
+                    PixelClass::Surface => *d,
+                    PixelClass::Ignored => 0.0,
+                })
+                .collect(),
+        })
+        .collect())
 }
 
 fn placement(relations: &[String], model_of: &dyn Fn(&str) -> Option<usize>) -> Placement {
