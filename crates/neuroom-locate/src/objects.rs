@@ -412,7 +412,12 @@ fn wall_hypotheses<F: Field>(target: &Target<F>, m: usize, model: &ObjectModel) 
         if n.z.abs() > 0.3 || n == Vec3::ZERO {
             continue;
         }
-        let n = Vec3::new(n.x, n.y, 0.0).normalize();
+        // The wall faces the camera that sees it: a learned room's SDF may rise again behind its
+        // walls, and a point just past the zero level would turn the object to face the wall.
+        let mut n = Vec3::new(n.x, n.y, 0.0).normalize();
+        if n.dot((target.camera.translation - p).as_vec3()) < 0.0 {
+            n = -n;
+        }
         let centre = p + (n * model.half.x).as_dvec3();
         out.push(Hypothesis {
             model: m,
@@ -661,7 +666,7 @@ fn greedy<F: Field>(
 
 /// Each placed object again, in the scene of all the others: later objects may explain its pixels
 /// better, or show it was put in the wrong place. Its pose is searched again from where it stands
-/// (also turned by a quarter and a half turn) and from the model's best hypotheses; it keeps the best
+/// (also turned by a quarter and a half turn, unless it hangs on a wall) and from the model's best hypotheses; it keeps the best
 /// refined pose, or leaves the scene when none is accepted any more.
 fn revisit<F: Field>(
     target: &Target<F>,
@@ -682,7 +687,13 @@ fn revisit<F: Field>(
         let m = found[k].model;
         let model = &models[m];
         let current = Pose::from_rows_unchecked(&found[k].object_to_world);
-        let mut starts: Vec<Hypothesis> = [0.0, 0.5, 1.0, 1.5]
+        // A wall object keeps facing out of its wall.
+        let turns: &[f64] = if model.placement == Placement::Wall {
+            &[0.0]
+        } else {
+            &[0.0, 0.5, 1.0, 1.5]
+        };
+        let mut starts: Vec<Hypothesis> = turns
             .iter()
             .map(|turn| Hypothesis {
                 model: m,
