@@ -666,8 +666,8 @@ fn greedy<F: Field>(
 
 /// Each placed object again, in the scene of all the others: later objects may explain its pixels
 /// better, or show it was put in the wrong place. Its pose is searched again from where it stands
-/// (also turned by a quarter and a half turn, unless it hangs on a wall) and from the model's best hypotheses; it keeps the best
-/// refined pose, or leaves the scene when none is accepted any more.
+/// (also turned by a quarter and a half turn, unless it hangs on a wall) and from the model's best
+/// hypotheses; it keeps the best refined pose, or leaves the scene when none is accepted any more.
 fn revisit<F: Field>(
     target: &Target<F>,
     models: &[ObjectModel],
