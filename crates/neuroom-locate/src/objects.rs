@@ -288,7 +288,12 @@ pub fn pose_score<F: Field>(
     pose: &Pose,
     config: &SearchConfig,
 ) -> (f64, usize, f64) {
-    let target = Target::new(input, config);
+    let models = relit_models(input);
+    let input = SearchInput {
+        models: &models,
+        ..*input
+    };
+    let target = Target::new(&input, config);
     let placed = Placed::nothing(&target);
     let mut buf = ZBuffer::default();
     let model = &input.models[m];
@@ -297,6 +302,11 @@ pub fn pose_score<F: Field>(
 
 /// Finds the objects of `input` and their initial poses.
 pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> Vec<Found> {
+    let models = relit_models(input);
+    let input = &SearchInput {
+        models: &models,
+        ..*input
+    };
     let target = Target::new(input, config);
     let (empty, models) = (input.empty, input.models);
     let floor = floor_height(empty, &input.camera_to_world);
@@ -311,6 +321,30 @@ pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> 
     }
     let found = greedy(&target, models, pool.clone(), config);
     revisit(&target, models, &pool, found, config)
+}
+
+/// The models with their clouds' colours under the panorama's light as the empty room shows it (its
+/// per-channel gain): a light's colour tints every object alike, so each object's own colour gain
+/// ([`limited_gain`]) is limited around the room's, not around the captures' light.
+fn relit_models<F>(input: &SearchInput<F>) -> Vec<ObjectModel> {
+    let gains = room_gains(input.view);
+    let relight = |cloud: &Cloud| Cloud {
+        colors: cloud
+            .colors
+            .iter()
+            .map(|c| Vec3::from(relit(c.to_array(), gains)))
+            .collect(),
+        ..cloud.clone()
+    };
+    input
+        .models
+        .iter()
+        .map(|m| ObjectModel {
+            coarse: relight(&m.coarse),
+            fine: relight(&m.fine),
+            ..m.clone()
+        })
+        .collect()
 }
 
 /// Height of the floor under the camera.

@@ -156,7 +156,10 @@ pub fn match_shading(query: &RgbImage, empty: &RgbImage, depth: &[f32]) -> RgbIm
         median_error(query, &shaded, &normals),
         median_error(query, &flat, &normals),
     );
-    if e_shaded < SHADING_GAIN_NEEDED * e_flat && e_flat - e_shaded > SHADING_GAIN_FLOOR {
+    let gained = e_flat - e_shaded;
+    if (e_shaded < SHADING_GAIN_NEEDED * e_flat && gained > SHADING_GAIN_FLOOR)
+        || gained > SHADING_GAIN_CLEAR
+    {
         shaded
     } else {
         empty.clone()
@@ -169,6 +172,11 @@ pub fn match_shading(query: &RgbImage, empty: &RgbImage, depth: &[f32]) -> RgbIm
 const SHADING_GAIN_NEEDED: f32 = 0.35;
 /// … and by at least this much (mean absolute sRGB difference).
 const SHADING_GAIN_FLOOR: f32 = 0.005;
+/// A normal-dependent gain that lowers the median residual by this much is used whatever the ratio: a
+/// light that darkens the ceiling and brightens the floor, over surfaces the fit explains only in part
+/// (a living room's test panorama: 0.129 → 0.072, all objects lost without it). Under lights like the
+/// captures' the gain was 0.010–0.025 on the bedroom's and living room's test panoramas.
+const SHADING_GAIN_CLEAR: f32 = 0.04;
 
 /// The empty room under the normal-dependent gain.
 fn reshade(query: &RgbImage, empty: &RgbImage, normals: &[Option<Vec3>]) -> RgbImage {
@@ -360,6 +368,32 @@ mod tests {
             .map(|c| (matched.data[object][c] - query.data[object][c]).abs())
             .sum();
         assert!(diff > 0.5, "{diff}");
+    }
+
+    #[test]
+    fn a_light_that_turns_floor_and_ceiling_apart_is_undone_over_unexplained_texture() {
+        let (w, h) = (96, 48);
+        let depth = box_room_depth(w, h);
+        let normals = panorama_normals(&depth, w, h);
+        let empty = textured(w, h, 7, |t| [t, t, t]);
+        // Ceiling at a third, floor doubled, walls a little brighter; and a fine texture that the
+        // room model does not show (a tiled floor the model blurred): no gain of the normal explains it.
+        let mut query = empty.clone();
+        for (i, n) in normals.iter().enumerate() {
+            if let Some(n) = n {
+                let g = 1.2 + 0.85 * n.z - 0.15 * n.z * n.z;
+                let texture = 1.0 + 0.45 * (i as f32 * 2.1).sin();
+                query.data[i] = empty.data[i]
+                    .map(|x| linear_to_srgb((srgb_to_linear(x) * g * texture).min(1.0)));
+            }
+        }
+        let e_flat = median_error(&query, &global_gain(&query, &empty, &normals), &normals);
+        let e_shaded = median_error(&query, &reshade(&query, &empty, &normals), &normals);
+        assert!(
+            e_shaded > SHADING_GAIN_NEEDED * e_flat && e_flat - e_shaded > SHADING_GAIN_CLEAR,
+            "the case this test is for: {e_flat} → {e_shaded}"
+        );
+        assert!(match_shading(&query, &empty, &depth) != empty);
     }
 
     #[test]
