@@ -401,6 +401,23 @@ mod tests {
         assert!(hidden.pixels.is_empty());
     }
 
+    /// `cloud` seen by a camera at the origin, standing 2 m ahead along +x, the room's walls far away.
+    fn splat_two_metres_ahead(cloud: &Cloud, w: usize, h: usize) -> Silhouette {
+        let object = Pose::from_yaw_translation(0.0, DVec3::new(2.0, 0.0, 0.0));
+        let far = vec![10.0; w * h];
+        let mut buffer = ZBuffer::default();
+        splat(
+            cloud,
+            &object,
+            &Pose::IDENTITY,
+            w,
+            h,
+            &far,
+            0.1,
+            &mut buffer,
+        )
+    }
+
     #[test]
     fn a_plane_of_points_a_little_over_a_pixel_apart_shows_without_holes() {
         // 3 cm apart at 2 m: 1.2 pixels of a 512-wide panorama, each point one pixel wide.
@@ -418,18 +435,7 @@ mod tests {
             spacing,
         };
         let (w, h) = (512, 256);
-        let object = Pose::from_yaw_translation(0.0, DVec3::new(2.0, 0.0, 0.0));
-        let far = vec![10.0; w * h];
-        let seen = splat(
-            &cloud,
-            &object,
-            &Pose::IDENTITY,
-            w,
-            h,
-            &far,
-            0.1,
-            &mut ZBuffer::default(),
-        );
+        let seen = splat_two_metres_ahead(&cloud, w, h);
         let (us, vs): (Vec<usize>, Vec<usize>) = seen
             .pixels
             .iter()
@@ -459,18 +465,7 @@ mod tests {
         // Coarse: the points of one face leave gaps that the far face would fill.
         let cloud = surface_cloud(&field, Vec3::splat(0.3), 0.08, CodeSet::default());
         let (w, h) = (256, 128);
-        let object = Pose::from_yaw_translation(0.0, DVec3::new(2.0, 0.0, 0.0));
-        let far = vec![10.0; w * h];
-        let seen = splat(
-            &cloud,
-            &object,
-            &Pose::IDENTITY,
-            w,
-            h,
-            &far,
-            0.1,
-            &mut ZBuffer::default(),
-        );
+        let seen = splat_two_metres_ahead(&cloud, w, h);
         assert!(!seen.colors.is_empty());
         let far_face = seen.colors.iter().filter(|c| c.x > 0.9).count();
         assert_eq!(
