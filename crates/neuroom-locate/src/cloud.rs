@@ -11,7 +11,7 @@ use neuroom_core::camera::{CameraModel, Pinhole};
 use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, Field, FieldOutput, Query};
 
-use crate::sphere::project;
+use crate::sphere::{neighbours, project};
 
 /// Surface points of one model in its frame, with colours (sRGB).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -89,12 +89,10 @@ pub struct FreeSpace {
 
 impl FreeSpace {
     /// Whether `point` (model frame) lies in space this frame saw empty by more than `tolerance`,
-    /// at its pixel and all eight neighbours (so that points on the model's rim stay).
-    fn sees_through(&self, point: Vec3, tolerance: f32) -> bool {
-        let local = self
-            .camera_to_model
-            .inverse()
-            .transform_point(point.as_dvec3());
+    /// at its pixel and all eight neighbours (so that points on the model's rim stay);
+    /// `model_to_camera` is the inverse of [`FreeSpace::camera_to_model`].
+    fn sees_through(&self, model_to_camera: &Pose, point: Vec3, tolerance: f32) -> bool {
+        let local = model_to_camera.transform_point(point.as_dvec3());
         let Some((pixel, _)) = self.camera.project(local) else {
             return false;
         };
@@ -117,10 +115,16 @@ impl FreeSpace {
 
 /// `cloud` without the points that some frame of `views` saw through by more than `tolerance` (metres).
 pub fn carve(cloud: Cloud, views: &[FreeSpace], tolerance: f32) -> Cloud {
+    let to_camera: Vec<Pose> = views.iter().map(|v| v.camera_to_model.inverse()).collect();
     let keep: Vec<bool> = cloud
         .points
         .iter()
-        .map(|p| !views.iter().any(|v| v.sees_through(*p, tolerance)))
+        .map(|p| {
+            !views
+                .iter()
+                .zip(&to_camera)
+                .any(|(v, m)| v.sees_through(m, *p, tolerance))
+        })
         .collect();
     let pick = |xs: Vec<Vec3>| -> Vec<Vec3> {
         xs.into_iter()
@@ -164,9 +168,9 @@ pub struct ZBuffer {
 
 /// Projects `cloud` placed at `object_to_world` into a `width × height` panorama at `camera_to_world`.
 /// Points farther than the scene's surface at `room_depth` (plus `tolerance`; 0 = no surface) are
-/// hidden by it; each point covers a
-/// square of pixels as wide as its spacing appears. Points whose normal faces away from the camera are
-/// skipped: the cloud is sparse, and back faces would show through the gaps between front points.
+/// hidden by it; each point covers a square of pixels as wide as its spacing appears. Points whose
+/// normal faces away from the camera are skipped: the cloud is sparse, and back faces would show
+/// through the gaps between front points.
 #[allow(clippy::too_many_arguments)]
 pub fn splat(
     cloud: &Cloud,
@@ -228,12 +232,7 @@ pub fn splat(
     let mut out = Silhouette::default();
     for &i in &buffer.touched {
         let i = i as usize;
-        let (u, v) = (i % width, i / width);
-        let covered = |j: usize| buffer.depth[j].is_finite();
-        let rim = !(covered(v * width + (u + 1) % width)
-            && covered(v * width + (u + width - 1) % width)
-            && (v == 0 || covered(i - width))
-            && (v + 1 == height || covered(i + width)));
+        let rim = !neighbours(i, width, height).all(|j| buffer.depth[j].is_finite());
         out.pixels.push(i as u32);
         out.colors.push(buffer.color[i]);
         out.rim.push(rim);
@@ -268,12 +267,7 @@ fn fill_gaps(
     };
     let mut fills: Vec<(usize, usize)> = Vec::new();
     for &i in &buffer.touched {
-        let (u, v) = (i as usize % width, i as usize / width);
-        let left = v * width + (u + width - 1) % width;
-        let right = v * width + (u + 1) % width;
-        let up = (v > 0).then(|| i as usize - width);
-        let down = (v + 1 < height).then(|| i as usize + width);
-        for j in [Some(left), Some(right), up, down].into_iter().flatten() {
+        for j in neighbours(i as usize, width, height) {
             if depth[j].is_finite() {
                 continue;
             }

@@ -1,13 +1,15 @@
 //! Where the panorama shows something the empty room does not: the per-pixel difference between the
 //! input and the empty room rendered at the found camera, after a robust per-channel gain (changed light
 //! colour and exposure), thresholded against its own spread, cleaned by opening, split into connected
-//! regions; light sources and the ceiling are left out. A [`Detector`] turns a view into detections; [`ResidualDetector`] is this classical one, and
-//! a learned detector plugs in through the same trait (it may also name the model of each detection).
+//! regions; light sources and the ceiling are left out. A [`Detector`] turns a view into detections;
+//! [`ResidualDetector`] is this classical one, and a learned detector plugs in through the same trait
+//! (it may also name the model of each detection).
 
 use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
 use serde::{Deserialize, Serialize};
 
 use crate::shading::panorama_normals;
+use crate::sphere::neighbours;
 
 /// The input panorama and the empty room, both at the working resolution, at the found camera.
 #[derive(Clone, Debug)]
@@ -132,33 +134,27 @@ pub fn relit(color: [f32; 3], gains: [f32; 3]) -> [f32; 3] {
     std::array::from_fn(|c| linear_to_srgb((srgb_to_linear(color[c]) * gains[c]).min(1.0)))
 }
 
+/// The empty room's colour per pixel as the query's light shows it under one gain per channel
+/// ([`room_gains`], [`relit`]).
+pub fn relit_room(view: &View) -> Vec<[f32; 3]> {
+    let gains = room_gains(view);
+    view.empty.data.iter().map(|e| relit(*e, gains)).collect()
+}
+
+/// Mean absolute difference of two sRGB colours.
+pub fn colour_error(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (0..3).map(|c| (a[c] - b[c]).abs()).sum::<f32>() / 3.0
+}
+
 /// Mean absolute sRGB difference per pixel between the query and the relit empty room; 0 where the
 /// empty room has no surface (nothing is known there).
 pub fn residual(view: &View) -> Vec<f32> {
-    let gains = room_gains(view);
-    view.query
-        .data
+    relit_room(view)
         .iter()
-        .zip(&view.empty.data)
+        .zip(&view.query.data)
         .zip(&view.empty_depth)
-        .map(|((q, e), d)| {
-            if *d <= 0.0 {
-                return 0.0;
-            }
-            let r = relit(*e, gains);
-            (0..3).map(|c| (q[c] - r[c]).abs()).sum::<f32>() / 3.0
-        })
+        .map(|((r, q), d)| if *d > 0.0 { colour_error(*q, *r) } else { 0.0 })
         .collect()
-}
-
-/// Neighbours of pixel `i` (4-connected, wrapping columns).
-fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
-    let (u, v) = (i % w, i / w);
-    let left = v * w + (u + w - 1) % w;
-    let right = v * w + (u + 1) % w;
-    let up = (v > 0).then(|| i - w);
-    let down = (v + 1 < h).then(|| i + w);
-    [Some(left), Some(right), up, down].into_iter().flatten()
 }
 
 /// A pixel stays set when it and its 4 neighbours are set.

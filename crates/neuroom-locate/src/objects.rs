@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::cloud::{Cloud, Silhouette, ZBuffer, splat};
-use crate::evidence::{Detection, View, dilate, relit, room_gains};
+use crate::evidence::{Detection, View, colour_error, dilate, relit, relit_room, room_gains};
 use crate::sphere::direction;
 
 /// Where a model may stand.
@@ -185,7 +185,7 @@ impl Placed {
         let (_, gain) = score(target, self, &sil, config);
         for ((&p, &c), &d) in sil.pixels.iter().zip(&sil.colors).zip(&sil.depths) {
             let p = p as usize;
-            self.error[p] = object_error(target, p, c, &gain);
+            self.error[p] = object_error(target, p, c, &gain, 1.0) as f32;
             self.depth[p] = d;
         }
         self.boxes
@@ -218,8 +218,7 @@ impl<'a, F: Field> Target<'a, F> {
             models,
         } = *input;
         let models = models.len();
-        let gains = room_gains(view);
-        let room_color: Vec<[f32; 3]> = view.empty.data.iter().map(|e| relit(*e, gains)).collect();
+        let room_color = relit_room(view);
         let n = view.width() * view.height();
         let mut allowed = vec![vec![false; n]; models];
         for d in detections {
@@ -246,7 +245,7 @@ impl<'a, F: Field> Target<'a, F> {
                 .zip(&view.empty_depth)
                 .map(|((r, q), d)| {
                     if *d > 0.0 {
-                        (0..3).map(|k| (q[k] - r[k]).abs()).sum::<f32>() / 3.0
+                        colour_error(*q, *r)
                     } else {
                         config.unknown_error
                     }
@@ -563,15 +562,7 @@ fn score<F>(
     let gain = limited_gain(std::array::from_fn(|k| num[k] / den[k].max(1e-9)), config);
     let (mut total, mut wins) = (0.0f64, 0usize);
     for &(p, c, a) in &visible {
-        let (q, r) = (target.view.query.data[p], target.room_color[p]);
-        let e_obj = (0..3)
-            .map(|k| {
-                let predicted = a * gain[k] * c[k] as f64 + (1.0 - a) * r[k] as f64;
-                (q[k] as f64 - predicted).abs()
-            })
-            .sum::<f64>()
-            / 3.0;
-        let d = placed.error[p] as f64 - e_obj;
+        let d = placed.error[p] as f64 - object_error(target, p, c, &gain, a);
         total += d;
         if d > 0.0 {
             wins += 1;
@@ -591,12 +582,16 @@ fn limited_gain(gain: [f64; 3], config: &SearchConfig) -> [f64; 3] {
     gain.map(|g| level * (g / level).clamp(1.0 / config.max_chroma, config.max_chroma))
 }
 
-/// The colour error of an object with colour `c` under `gain` at pixel `p`.
-fn object_error<F>(target: &Target<F>, p: usize, c: Vec3, gain: &[f64; 3]) -> f32 {
-    let q = target.view.query.data[p];
+/// The colour error at pixel `p` of an object with colour `c` under `gain` covering the fraction
+/// `cover` of the pixel (the empty room's colour fills the rest).
+fn object_error<F>(target: &Target<F>, p: usize, c: Vec3, gain: &[f64; 3], cover: f64) -> f64 {
+    let (q, r) = (target.view.query.data[p], target.room_color[p]);
     (0..3)
-        .map(|k| (q[k] as f64 - gain[k] * c[k] as f64).abs())
-        .sum::<f64>() as f32
+        .map(|k| {
+            let predicted = cover * gain[k] * c[k] as f64 + (1.0 - cover) * r[k] as f64;
+            (q[k] as f64 - predicted).abs()
+        })
+        .sum::<f64>()
         / 3.0
 }
 

@@ -14,6 +14,16 @@ pub fn direction(x: f64, y: f64, width: usize, height: usize) -> DVec3 {
     DVec3::new(cl * co, cl * so, sl)
 }
 
+/// Neighbours of pixel `i` of a `w × h` panorama (4-connected; columns wrap round, rows do not).
+pub(crate) fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
+    let (u, v) = (i % w, i / w);
+    let left = v * w + (u + w - 1) % w;
+    let right = v * w + (u + 1) % w;
+    let up = (v > 0).then(|| i - w);
+    let down = (v + 1 < h).then(|| i + w);
+    [Some(left), Some(right), up, down].into_iter().flatten()
+}
+
 /// Continuous pixel coordinates of camera-frame point `p`, or `None` on the vertical axis (no longitude).
 pub fn project(p: DVec3, width: usize, height: usize) -> Option<DVec2> {
     use std::f64::consts::PI;
