@@ -4,7 +4,7 @@
 //! A [`Tape`] keeps one [`Workspace`] per chunk of [`CHUNK`] points plus one gradient accumulator per
 //! rayon thread; both are allocated on first use and reused by later steps of the same size or smaller.
 
-use crate::neus::{CHUNK, CodeSet, Codes, NeusField, Outputs, Workspace};
+use crate::neus::{CHUNK, CodeSet, Codes, FieldPack, NeusField, Outputs, Workspace};
 use crate::params::Params;
 use crate::real::Real;
 use rayon::prelude::*;
@@ -20,6 +20,7 @@ const BLOCK: usize = 32;
 pub struct Tape<T> {
     chunks: Vec<Workspace<T>>,
     used: usize,
+    pack: FieldPack<T>,
     partials: Vec<Params<T>>,
     eikonal_points: Vec<[T; 3]>,
     eikonal_objects: Vec<u32>,
@@ -69,6 +70,8 @@ impl<T: Real> NeusField<T> {
             tape.chunks.push(self.workspace());
         }
         tape.used = count;
+        self.pack_into(&mut tape.pack);
+        let pack = &tape.pack;
         tape.chunks[..count]
             .par_chunks_mut(BLOCK)
             .enumerate()
@@ -94,12 +97,12 @@ impl<T: Real> NeusField<T> {
                     } else {
                         &[][..]
                     };
-                    self.finish_chunk(&points[s..e], d, &codes.slice(s, e), ws);
+                    self.finish_chunk(pack, &points[s..e], d, &codes.slice(s, e), ws);
                 }
             });
     }
 
-    /// Backward pass after [`NeusField::forward`] with the same `codes`: adds every parameter gradient to
+    /// Backward pass after [`NeusField::forward`] with the same `codes` and parameters: adds every parameter gradient to
     /// `grads` (full shape, hash group included) and, with `d_points`, writes `∂loss/∂x` per point.
     pub fn backward(
         &self,
@@ -122,6 +125,7 @@ impl<T: Real> NeusField<T> {
             None => (0..groups).map(|_| None).collect(),
         };
         let chunks = &mut tape.chunks[..tape.used];
+        let pack = &tape.pack;
         chunks
             .par_chunks_mut(per)
             .zip(tape.partials[..groups].par_iter_mut())
@@ -136,7 +140,15 @@ impl<T: Real> NeusField<T> {
                     let dpk = dp
                         .as_deref_mut()
                         .map(|d| &mut d[k * CHUNK..k * CHUNK + (e - s)]);
-                    self.backward_chunk(&codes.slice(s, e), ws, &d_sdf[s..e], dr, partial, dpk);
+                    self.backward_chunk(
+                        pack,
+                        &codes.slice(s, e),
+                        ws,
+                        &d_sdf[s..e],
+                        dr,
+                        partial,
+                        dpk,
+                    );
                 }
             });
         for partial in &tape.partials[..groups] {

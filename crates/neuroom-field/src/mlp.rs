@@ -123,15 +123,25 @@ pub struct Mlp {
     num_params: usize,
 }
 
-/// Reusable buffers of one chunk: the output of every layer, two gradient buffers and the padded copy of
-/// one layer's weights. Rows of activations and deltas are padded (see the module documentation).
+/// Reusable buffers of one chunk: the output of every layer and two gradient buffers. Rows of activations
+/// and deltas are padded (see the module documentation).
 #[derive(Clone, Debug, Default)]
 pub struct MlpWorkspace<T> {
     acts: Vec<Vec<T>>,
     widths: Vec<usize>,
     delta: Vec<T>,
     delta_prev: Vec<T>,
-    packed: Vec<T>,
+}
+
+/// A network's weights copied into the padded layouts the products read, made once per batched pass and
+/// read by every chunk: per layer, `[in][padded(out)]` with the bias row last (the first layer without its
+/// `shared` input rows, see [`Mlp::forward_split`]), and the transpose `[out][padded(in)]` for input
+/// gradients.
+#[derive(Clone, Debug, Default)]
+pub struct MlpPack<T> {
+    forward: Vec<Vec<T>>,
+    transposed: Vec<Vec<T>>,
+    shared: Range<usize>,
 }
 
 impl<T: Real> MlpWorkspace<T> {
@@ -224,12 +234,6 @@ impl Mlp {
     /// Allocates a workspace for up to `rows` points.
     pub fn workspace<T: Real>(&self, rows: usize) -> MlpWorkspace<T> {
         let max = padded(*self.dims.iter().max().unwrap_or(&0));
-        let packed = self
-            .dims
-            .windows(2)
-            .map(|w| (w[0] + 1) * padded(w[1]).max(padded(w[0])))
-            .max()
-            .unwrap_or(0);
         MlpWorkspace {
             acts: self.dims[1..]
                 .iter()
@@ -238,54 +242,67 @@ impl Mlp {
             widths: self.dims[1..].to_vec(),
             delta: vec![T::ZERO; rows * max],
             delta_prev: vec![T::ZERO; rows * max],
-            packed: vec![T::ZERO; packed],
         }
+    }
+
+    /// Packs `params` for the passes of a batch; the first layer's input columns `shared` are left out
+    /// (see [`Mlp::forward_split`]; `0..0` for none). Reuses `pack`'s buffers.
+    pub fn pack_into<T: Real>(&self, params: &[T], shared: Range<usize>, pack: &mut MlpPack<T>) {
+        let layers = self.layers();
+        pack.forward.resize_with(layers, Vec::new);
+        pack.transposed.resize_with(layers, Vec::new);
+        for l in 0..layers {
+            let (i, o) = (self.dims[l], self.dims[l + 1]);
+            let w = &params[self.offsets[l]..self.offsets[l] + i * o + o];
+            let skip = if l == 0 { shared.clone() } else { 0..0 };
+            let fwd = &mut pack.forward[l];
+            fwd.resize((i - skip.len() + 1) * padded(o), T::ZERO);
+            pack_weights(w, i, o, skip, fwd);
+            let tr = &mut pack.transposed[l];
+            tr.resize(o * padded(i), T::ZERO);
+            pack_transposed(w, i, o, i, tr);
+        }
+        pack.shared = shared;
+    }
+
+    /// [`Mlp::pack_into`] into a new pack.
+    pub fn pack<T: Real>(&self, params: &[T], shared: Range<usize>) -> MlpPack<T> {
+        let mut pack = MlpPack::default();
+        self.pack_into(params, shared, &mut pack);
+        pack
     }
 
     /// Forward pass of `n` rows of `input` (`n × input`, contiguous); read the result with
     /// [`MlpWorkspace::output`].
-    pub fn forward<T: Real>(&self, params: &[T], input: &[T], n: usize, ws: &mut MlpWorkspace<T>) {
-        self.forward_strided(params, input, self.config.input, n, ws);
-    }
-
-    /// [`Mlp::forward`] with input rows `stride` values apart.
-    pub fn forward_strided<T: Real>(
+    pub fn forward<T: Real>(
         &self,
-        params: &[T],
+        pack: &MlpPack<T>,
         input: &[T],
-        stride: usize,
         n: usize,
         ws: &mut MlpWorkspace<T>,
     ) {
-        self.forward_split(params, input, stride, n, ws, 0..0);
+        self.forward_split(pack, input, self.config.input, n, ws);
     }
 
-    /// Forward pass in which the input columns `shared` are left out of `input` (whose rows then hold the
-    /// other columns, in order): the caller has already written, in [`MlpWorkspace::first_layer_mut`],
-    /// each row's bias plus the contribution of its `shared` columns. Inputs that repeat across many rows
-    /// (per-frame codes) are cheaper that way: their product is computed once per distinct value.
+    /// Forward pass of `n` rows of `input`, rows `stride` values apart. With a pack made with `shared`
+    /// input columns, those columns are left out of `input` (whose rows then hold the other columns, in
+    /// order): the caller has already written, in [`MlpWorkspace::first_layer_mut`], each row's bias plus
+    /// the contribution of its `shared` columns. Inputs that repeat across many rows (per-frame codes) are
+    /// cheaper that way: their product is computed once per distinct value.
     pub fn forward_split<T: Real>(
         &self,
-        params: &[T],
+        pack: &MlpPack<T>,
         input: &[T],
         stride: usize,
         n: usize,
         ws: &mut MlpWorkspace<T>,
-        shared: Range<usize>,
     ) {
         for l in 0..self.layers() {
             let (mut i, o) = (self.dims[l], self.dims[l + 1]);
             let op = padded(o);
-            let skip = if l == 0 { shared.clone() } else { 0..0 };
-            pack_weights(
-                &params[self.offsets[l]..],
-                i,
-                o,
-                skip.clone(),
-                &mut ws.packed,
-            );
+            let skip = if l == 0 { pack.shared.clone() } else { 0..0 };
             i -= skip.len();
-            let (w, b) = ws.packed.split_at(i * op);
+            let (w, b) = pack.forward[l].split_at(i * op);
             let init = if skip.is_empty() {
                 Init::Bias(&b[..op])
             } else {
@@ -310,7 +327,7 @@ impl Mlp {
     #[allow(clippy::too_many_arguments)] // the stage's inputs, saved activations and both gradient outputs
     pub fn backward<T: Real>(
         &self,
-        params: &[T],
+        pack: &MlpPack<T>,
         input: &[T],
         n: usize,
         ws: &mut MlpWorkspace<T>,
@@ -319,38 +336,23 @@ impl Mlp {
         d_input: Option<(&mut [T], usize)>,
     ) {
         let (out, stride) = (self.config.output, self.config.input);
-        self.backward_strided(params, (input, stride), n, ws, (d_out, out), grads, d_input);
+        self.backward_split(pack, (input, stride), n, ws, (d_out, out), grads, d_input);
     }
 
-    /// [`Mlp::backward`] with strided input rows and output-gradient rows: `(values, row stride)`.
+    /// Backward pass after [`Mlp::forward_split`] with the same pack, input and output-gradient rows given
+    /// as `(values, row stride)`. With `shared` columns in the pack, the first layer's weight gradient is
+    /// added for the other rows only, `d_input` may ask for columns before `shared` only, and
+    /// [`MlpWorkspace::first_layer_delta`] then holds what the caller needs for the `shared` rows.
     #[allow(clippy::too_many_arguments)] // as `backward`
-    pub fn backward_strided<T: Real>(
+    pub fn backward_split<T: Real>(
         &self,
-        params: &[T],
+        pack: &MlpPack<T>,
         input: (&[T], usize),
         n: usize,
         ws: &mut MlpWorkspace<T>,
         d_out: (&[T], usize),
         grads: Option<&mut [T]>,
         d_input: Option<(&mut [T], usize)>,
-    ) {
-        self.backward_split(params, input, n, ws, d_out, grads, d_input, 0..0);
-    }
-
-    /// Backward pass after [`Mlp::forward_split`] with the same `shared` columns: the first layer's weight
-    /// gradient is added for the other rows only, `d_input` may ask for columns before `shared` only, and
-    /// [`MlpWorkspace::first_layer_delta`] then holds what the caller needs for the `shared` rows.
-    #[allow(clippy::too_many_arguments)] // as `backward`, plus the split
-    pub fn backward_split<T: Real>(
-        &self,
-        params: &[T],
-        input: (&[T], usize),
-        n: usize,
-        ws: &mut MlpWorkspace<T>,
-        d_out: (&[T], usize),
-        mut grads: Option<&mut [T]>,
-        mut d_input: Option<(&mut [T], usize)>,
-        shared: Range<usize>,
     ) {
         let last = self.layers() - 1;
         let (out_w, dp) = (self.dims[last + 1], padded(self.dims[last + 1]));
@@ -360,7 +362,62 @@ impl Mlp {
         let y = &ws.acts[last][..n * dp];
         self.activation(last)
             .scale_by_derivative(&mut ws.delta[..n * dp], y, dp, out_w);
-        for l in (0..=last).rev() {
+        self.backward_layers(pack, input, n, ws, last + 1, grads, d_input);
+    }
+
+    /// The gradient of output `column` with respect to the first `d_input.1` input columns, written to
+    /// `d_input.0` (`n × cols`), after [`Mlp::forward`]; no parameter gradient. What a field's normal
+    /// needs: the output layer's product with a one-hot gradient is a copy of one weight column, so it is
+    /// not multiplied out.
+    pub fn output_input_gradient<T: Real>(
+        &self,
+        pack: &MlpPack<T>,
+        input: (&[T], usize),
+        n: usize,
+        ws: &mut MlpWorkspace<T>,
+        column: usize,
+        d_input: (&mut [T], usize),
+    ) {
+        let last = self.layers() - 1;
+        let (i, dp) = (self.dims[last], padded(self.dims[last + 1]));
+        let ip = padded(i);
+        let out_act = self.activation(last);
+        let weights = &pack.transposed[last][column * ip..(column + 1) * ip];
+        let y = &ws.acts[last];
+        for (p, row) in ws.delta[..n * ip].chunks_exact_mut(ip).enumerate() {
+            let scale = out_act.derivative(y[p * dp + column]);
+            for (d, w) in row.iter_mut().zip(weights) {
+                *d = scale * *w;
+            }
+        }
+        if last == 0 {
+            let (buf, cols) = d_input;
+            for (p, row) in buf[..n * cols].chunks_exact_mut(cols).enumerate() {
+                row.copy_from_slice(&ws.delta[p * ip..p * ip + cols]);
+            }
+            return;
+        }
+        let x = &ws.acts[last - 1][..n * ip];
+        self.activation(last - 1)
+            .scale_by_derivative(&mut ws.delta[..n * ip], x, ip, i);
+        self.backward_layers(pack, input, n, ws, last, None, Some(d_input));
+    }
+
+    /// The backward pass through layers `layers − 1` down to 0, with `ws.delta` holding the loss gradient
+    /// of layer `layers − 1`'s pre-activation.
+    #[allow(clippy::too_many_arguments)] // as `backward`
+    fn backward_layers<T: Real>(
+        &self,
+        pack: &MlpPack<T>,
+        input: (&[T], usize),
+        n: usize,
+        ws: &mut MlpWorkspace<T>,
+        layers: usize,
+        mut grads: Option<&mut [T]>,
+        mut d_input: Option<(&mut [T], usize)>,
+    ) {
+        let shared = &pack.shared;
+        for l in (0..layers).rev() {
             let (i, o) = (self.dims[l], self.dims[l + 1]);
             let op = padded(o);
             let (x, xs) = if l == 0 {
@@ -369,8 +426,8 @@ impl Mlp {
                 (&ws.acts[l - 1][..], padded(i))
             };
             let delta = &ws.delta[..n * op];
-            let (wo, bo) = (self.offsets[l], self.offsets[l] + i * o);
             if let Some(grads) = grads.as_deref_mut() {
+                let (wo, bo) = (self.offsets[l], self.offsets[l] + i * o);
                 let (gw, gb) = grads[wo..bo + o].split_at_mut(i * o);
                 // dW += Xᵀ · Δ, for the weight rows before and after the shared ones.
                 let skip = if l == 0 { shared.clone() } else { i..i };
@@ -408,12 +465,12 @@ impl Mlp {
                     }
                 }
             }
+            let ip = padded(i);
+            let wt = &pack.transposed[l];
             if l > 0 {
                 // Δ_prev = (Δ · Wᵀ) ⊙ act'(x)
-                let ip = padded(i);
-                pack_transposed(&params[wo..bo], i, o, i, &mut ws.packed);
                 let dprev = &mut ws.delta_prev[..n * ip];
-                matmul(n, i, o, delta, op, 1, &ws.packed, ip, dprev, ip, Init::Zero);
+                matmul(n, i, o, delta, op, 1, wt, ip, dprev, ip, Init::Zero);
                 self.activation(l - 1)
                     .scale_by_derivative(dprev, &x[..n * ip], ip, i);
                 std::mem::swap(&mut ws.delta, &mut ws.delta_prev);
@@ -422,21 +479,7 @@ impl Mlp {
                     shared.is_empty() || cols <= shared.start,
                     "backward_split: input gradient of shared columns"
                 );
-                pack_transposed(&params[wo..bo], i, o, cols, &mut ws.packed);
-                let cp = padded(cols);
-                matmul(
-                    n,
-                    cols,
-                    o,
-                    delta,
-                    op,
-                    1,
-                    &ws.packed,
-                    cp,
-                    buf,
-                    cols,
-                    Init::Zero,
-                );
+                matmul(n, cols, o, delta, op, 1, wt, ip, buf, cols, Init::Zero);
             }
         }
     }

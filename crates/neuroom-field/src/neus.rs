@@ -18,7 +18,7 @@
 //! uses central finite differences ([`NeusField::eikonal`]), so no second derivatives are ever needed.
 
 use crate::hash::{HashGrid, HashGridConfig, Strides};
-use crate::mlp::{Activation, Mlp, MlpConfig, MlpWorkspace};
+use crate::mlp::{Activation, Mlp, MlpConfig, MlpPack, MlpWorkspace};
 use crate::params::{Group, Params};
 use crate::real::Real;
 use crate::rng::SplitMix;
@@ -233,6 +233,13 @@ impl<'a> CodeSet<'a> {
             object: self.object.slice(start, end),
         }
     }
+}
+
+/// Both networks' weights packed for one batched pass (see [`MlpPack`]).
+#[derive(Clone, Debug, Default)]
+pub struct FieldPack<T> {
+    sdf: MlpPack<T>,
+    color: MlpPack<T>,
 }
 
 /// Buffers of one chunk, allocated once and reused: inputs, activations, outputs and gradients.
@@ -485,27 +492,21 @@ impl<T: Real> NeusField<T> {
         (s * sdf, grad.map(|g| s * g))
     }
 
-    /// Forward pass of one chunk (at most [`CHUNK`] points). `dirs` (unit view directions) is read only for
-    /// [`Outputs::Full`]. Points outside the field's box are clamped onto it for the encoding.
-    pub fn forward_chunk(
-        &self,
-        points: &[[T; 3]],
-        dirs: &[[T; 3]],
-        codes: &CodeSet,
-        outputs: Outputs,
-        ws: &mut Workspace<T>,
-    ) {
-        self.begin_chunk(points, outputs, ws);
-        for l in 0..self.config.hash.levels {
-            self.encode_level(l, ws);
-        }
-        self.finish_chunk(points, dirs, codes, ws);
+    /// Packs both networks' weights for the chunks of one batched pass.
+    pub(crate) fn pack_into(&self, pack: &mut FieldPack<T>) {
+        self.sdf_mlp
+            .pack_into(self.params.get(Group::SdfMlp), 0..0, &mut pack.sdf);
+        self.color_mlp.pack_into(
+            self.params.get(Group::ColorMlp),
+            self.code_columns(),
+            &mut pack.color,
+        );
     }
 
     /// First stage of a chunk's forward pass: maps the points into the unit cube.
     pub(crate) fn begin_chunk(&self, points: &[[T; 3]], outputs: Outputs, ws: &mut Workspace<T>) {
         let n = points.len();
-        assert!(n <= CHUNK, "forward_chunk: {n} points exceed CHUNK");
+        assert!(n <= CHUNK, "begin_chunk: {n} points exceed CHUNK");
         ws.n = n;
         ws.outputs = Some(outputs);
         for (u, x) in ws.u.iter_mut().zip(points) {
@@ -539,6 +540,7 @@ impl<T: Real> NeusField<T> {
     /// Last stage of a chunk's forward pass, after every level is encoded: the networks.
     pub(crate) fn finish_chunk(
         &self,
+        pack: &FieldPack<T>,
         points: &[[T; 3]],
         dirs: &[[T; 3]],
         codes: &CodeSet,
@@ -561,12 +563,8 @@ impl<T: Real> NeusField<T> {
                 row[3..].copy_from_slice(&objects[c * od..(c + 1) * od]);
             }
         }
-        self.sdf_mlp.forward(
-            self.params.get(Group::SdfMlp),
-            &ws.sdf_in,
-            n,
-            &mut ws.sdf_ws,
-        );
+        self.sdf_mlp
+            .forward(&pack.sdf, &ws.sdf_in, n, &mut ws.sdf_ws);
         let (out, os) = ws.sdf_ws.output();
         for (p, x) in points.iter().enumerate() {
             let (b, gb) = self.base(x);
@@ -574,30 +572,24 @@ impl<T: Real> NeusField<T> {
             ws.base_grad[p] = gb;
         }
         if outputs != Outputs::Sdf {
-            self.sdf_gradient(ws);
+            self.sdf_gradient(pack, ws);
         }
         if outputs == Outputs::Full {
-            self.color_forward(dirs, codes, ws);
+            self.color_forward(pack, dirs, codes, ws);
         }
     }
 
     /// `∂SDF/∂x` through the network (input gradient only) and the hash grid's Jacobian.
-    fn sdf_gradient(&self, ws: &mut Workspace<T>) {
+    fn sdf_gradient(&self, pack: &FieldPack<T>, ws: &mut Workspace<T>) {
         let n = ws.n;
-        let (si, so) = (self.sdf_in_dim(), 1 + self.config.geometry_features);
-        ws.d_out[..n * so].fill(T::ZERO);
-        for p in 0..n {
-            ws.d_out[p * so] = T::ONE;
-        }
-        let params = self.params.get(Group::SdfMlp);
-        self.sdf_mlp.backward(
-            params,
-            &ws.sdf_in,
+        let si = self.sdf_in_dim();
+        self.sdf_mlp.output_input_gradient(
+            &pack.sdf,
+            (&ws.sdf_in, si),
             n,
             &mut ws.sdf_ws,
-            &ws.d_out,
-            None,
-            Some((&mut ws.d_sdf_in, si)),
+            0,
+            (&mut ws.d_sdf_in, si),
         );
         self.split_encoding_grad(ws, si);
         let mut gradient = std::mem::take(&mut ws.gradient);
@@ -641,7 +633,13 @@ impl<T: Real> NeusField<T> {
 
     /// Colour network forward. Input row `[feature, appearance, light, SH(dir), normal]`; the codes enter
     /// through the first layer's pre-activation (see [`NeusField::code_columns`]), the rest row by row.
-    fn color_forward(&self, dirs: &[[T; 3]], codes: &CodeSet, ws: &mut Workspace<T>) {
+    fn color_forward(
+        &self,
+        pack: &FieldPack<T>,
+        dirs: &[[T; 3]],
+        codes: &CodeSet,
+        ws: &mut Workspace<T>,
+    ) {
         let n = ws.n;
         let g = self.config.geometry_features;
         let ci = self.color_mlp.config().input - self.code_columns().len();
@@ -660,14 +658,8 @@ impl<T: Real> NeusField<T> {
             }
         }
         self.code_pre_activation(codes, ws);
-        self.color_mlp.forward_split(
-            self.params.get(Group::ColorMlp),
-            &ws.color_in,
-            ci,
-            n,
-            &mut ws.color_ws,
-            self.code_columns(),
-        );
+        self.color_mlp
+            .forward_split(&pack.color, &ws.color_in, ci, n, &mut ws.color_ws);
         let (rgb, rs) = ws.color_ws.output();
         for (p, dst) in ws.rgb[..n * 3].chunks_exact_mut(3).enumerate() {
             dst.copy_from_slice(&rgb[p * rs..p * rs + 3]);
@@ -750,13 +742,15 @@ impl<T: Real> NeusField<T> {
         }
     }
 
-    /// Backward pass of the chunk last run through [`NeusField::forward_chunk`]. `d_sdf` (`n`) and `d_rgb`
+    /// Backward pass of the chunk last run through the forward stages (with the same `pack`). `d_sdf` (`n`) and `d_rgb`
     /// (`n × 3`, only after [`Outputs::Full`]) are the loss gradients. Adds the gradients of every group
     /// except the hash tables to `grads` (which may have an empty hash group); the hash tables' gradient is
     /// left in the workspace for [`NeusField::scatter_hash_grads`]. With `d_points`, writes `∂loss/∂x`
     /// (requires a forward pass with a gradient; the path through the normal is excluded by design).
-    pub fn backward_chunk(
+    #[allow(clippy::too_many_arguments)] // the pass's weights, codes, saved chunk, both loss gradients and outputs
+    pub(crate) fn backward_chunk(
         &self,
+        pack: &FieldPack<T>,
         codes: &CodeSet,
         ws: &mut Workspace<T>,
         d_sdf: &[T],
@@ -777,18 +771,16 @@ impl<T: Real> NeusField<T> {
                 Some(Outputs::Full),
                 "backward_chunk: d_rgb needs a Full forward pass"
             );
-            let params = self.params.get(Group::ColorMlp);
             let ci = self.color_mlp.config().input - self.code_columns().len();
             let gc = Some(&mut grads.groups[Group::ColorMlp as usize][..]);
             self.color_mlp.backward_split(
-                params,
+                &pack.color,
                 (&ws.color_in, ci),
                 n,
                 &mut ws.color_ws,
                 (d_rgb, 3),
                 gc,
                 Some((&mut ws.d_color_in, g)),
-                self.code_columns(),
             );
             for p in 0..n {
                 ws.d_out[p * so + 1..(p + 1) * so]
@@ -796,7 +788,6 @@ impl<T: Real> NeusField<T> {
             }
             self.code_backward(codes, ws, grads);
         }
-        let params = self.params.get(Group::SdfMlp);
         let gs = Some(&mut grads.groups[Group::SdfMlp as usize][..]);
         let (enc, od) = (self.config.hash.output_dim(), self.config.object_dim());
         // The position columns' gradient is needed only for `d_points`: without it (and without object
@@ -807,7 +798,7 @@ impl<T: Real> NeusField<T> {
             enc
         };
         self.sdf_mlp.backward(
-            params,
+            &pack.sdf,
             &ws.sdf_in,
             n,
             &mut ws.sdf_ws,

@@ -133,7 +133,7 @@ fn check_mlp(hidden_activation: Activation, output_activation: Activation) {
     let c = random(&mut rng, n * 4, 1.0);
     let mut ws = mlp.workspace(n);
     let loss = |params: &[f64], input: &[f64], ws: &mut neuroom_field::mlp::MlpWorkspace<f64>| {
-        mlp.forward(params, input, n, ws);
+        mlp.forward(&mlp.pack(params, 0..0), input, n, ws);
         let (out, stride) = ws.output();
         (0..n * 4)
             .map(|i| out[(i / 4) * stride + i % 4] * c[i])
@@ -143,7 +143,7 @@ fn check_mlp(hidden_activation: Activation, output_activation: Activation) {
     let mut grads = vec![0.0; params.len()];
     let mut d_in = vec![0.0; n * 5];
     mlp.backward(
-        &params,
+        &mlp.pack(&params, 0..0),
         &input,
         n,
         &mut ws,
@@ -168,6 +168,73 @@ fn check_mlp(hidden_activation: Activation, output_activation: Activation) {
         let lm = loss(&params, &input, &mut ws);
         input[i] = v;
         assert_close(&format!("input {i}"), d_in[i], (lp - lm) / (2.0 * EPS));
+    }
+    // One output's input gradient (the field's normal): every output column against the same
+    // differences of that column alone, asking for a prefix of the input columns.
+    for column in 0..4 {
+        let output = |input: &[f64], ws: &mut neuroom_field::mlp::MlpWorkspace<f64>| {
+            mlp.forward(&mlp.pack(&params, 0..0), input, n, ws);
+            let (out, stride) = ws.output();
+            (0..n).map(|p| out[p * stride + column]).collect::<Vec<_>>()
+        };
+        output(&input, &mut ws);
+        let mut d_cols = vec![0.0; n * 4];
+        mlp.output_input_gradient(
+            &mlp.pack(&params, 0..0),
+            (&input, 5),
+            n,
+            &mut ws,
+            column,
+            (&mut d_cols, 4),
+        );
+        for p in 0..n {
+            for col in 0..4 {
+                let v = input[p * 5 + col];
+                input[p * 5 + col] = v + EPS;
+                let yp = output(&input, &mut ws)[p];
+                input[p * 5 + col] = v - EPS;
+                let ym = output(&input, &mut ws)[p];
+                input[p * 5 + col] = v;
+                let name = format!("output {column} row {p} input {col}");
+                assert_close(&name, d_cols[p * 4 + col], (yp - ym) / (2.0 * EPS));
+            }
+        }
+    }
+}
+
+/// A one-layer network's output input gradient is a weight column scaled by the output activation's
+/// derivative.
+#[test]
+fn mlp_output_input_gradient_single_layer() {
+    let mlp = Mlp::new(MlpConfig {
+        input: 3,
+        hidden: vec![],
+        output: 2,
+        hidden_activation: Activation::Relu,
+        output_activation: Activation::Sigmoid,
+    });
+    let mut rng = SplitMix::new(5);
+    let params = random(&mut rng, mlp.num_params(), 0.8);
+    let n = 2;
+    let mut input = random(&mut rng, n * 3, 1.0);
+    let mut ws = mlp.workspace(n);
+    let pack = mlp.pack(&params, 0..0);
+    let out1 = |input: &[f64], ws: &mut neuroom_field::mlp::MlpWorkspace<f64>| {
+        mlp.forward(&pack, input, n, ws);
+        let (out, stride) = ws.output();
+        (0..n).map(|p| out[p * stride + 1]).collect::<Vec<_>>()
+    };
+    out1(&input, &mut ws);
+    let mut d = vec![0.0; n * 3];
+    mlp.output_input_gradient(&pack, (&input, 3), n, &mut ws, 1, (&mut d, 3));
+    for i in 0..n * 3 {
+        let v = input[i];
+        input[i] = v + EPS;
+        let yp = out1(&input, &mut ws)[i / 3];
+        input[i] = v - EPS;
+        let ym = out1(&input, &mut ws)[i / 3];
+        input[i] = v;
+        assert_close(&format!("input {i}"), d[i], (yp - ym) / (2.0 * EPS));
     }
 }
 
@@ -551,7 +618,7 @@ fn mlp_split_gradients() {
         let rest: Vec<f64> = (0..n)
             .flat_map(|p| [0, 1, 4, 5].map(|r| input[p * 6 + r]))
             .collect();
-        mlp.forward_split(params, &rest, 4, n, ws, shared.clone());
+        mlp.forward_split(&mlp.pack(params, shared.clone()), &rest, 4, n, ws);
         rest
     };
     let loss = |params: &[f64], input: &[f64], ws: &mut neuroom_field::mlp::MlpWorkspace<f64>| {
@@ -565,14 +632,13 @@ fn mlp_split_gradients() {
     let mut grads = vec![0.0; params.len()];
     let mut d_in = vec![0.0; n * 2];
     mlp.backward_split(
-        &params,
+        &mlp.pack(&params, shared.clone()),
         (&rest, 4),
         n,
         &mut ws,
         (&c, 3),
         Some(&mut grads),
         Some((&mut d_in, 2)),
-        shared.clone(),
     );
     let (delta, ds) = ws.first_layer_delta();
     for r in shared.clone() {
