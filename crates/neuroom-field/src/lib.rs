@@ -10,8 +10,6 @@
 //!    `neuroom-render`, then `field.backward(&codes, &mut tape, &d_sdf, Some(&d_rgb), &mut grads, None)`,
 //!    `field.backward_inv_s(d_inv_s, &mut grads)`, `field.eikonal(...)`, `adam.step(&mut field.params,
 //!    &grads, &lrs)` and `grads.fill_zero()`.
-//! 3. For fusion (render per chunk while activations are hot), use the per-chunk API
-//!    ([`NeusField::forward_chunk`], [`NeusField::backward_chunk`], [`NeusField::scatter_hash_grads`]).
 
 pub mod adam;
 pub mod batch;

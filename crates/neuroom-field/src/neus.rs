@@ -828,7 +828,7 @@ impl<T: Real> NeusField<T> {
 
     /// Adds the hash-table gradient left by [`NeusField::backward_chunk`] in `workspaces` to the hash
     /// group of `grads`, one rayon task per level.
-    pub fn scatter_hash_grads(&self, workspaces: &[Workspace<T>], grads: &mut Params<T>) {
+    pub(crate) fn scatter_hash_grads(&self, workspaces: &[Workspace<T>], grads: &mut Params<T>) {
         let segments: Vec<(&[[T; 3]], &[T])> = workspaces
             .iter()
             .map(|w| (&w.u[..w.n], &w.d_enc[..]))
