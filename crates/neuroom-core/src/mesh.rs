@@ -48,6 +48,14 @@ impl TriMesh {
     /// `n` points spread over the surface with probability proportional to area, deterministic: the
     /// `k`-th point uses a low-discrepancy sequence instead of a random generator, so two runs agree.
     pub fn sample_surface(&self, n: usize) -> Vec<Vec3> {
+        self.sample_surface_on_triangles(n)
+            .into_iter()
+            .map(|(p, _)| p)
+            .collect()
+    }
+
+    /// [`TriMesh::sample_surface`], each point with the index of the triangle it lies on.
+    pub fn sample_surface_on_triangles(&self, n: usize) -> Vec<(Vec3, u32)> {
         let mut cumulative = Vec::with_capacity(self.triangles.len());
         let mut total = 0.0f64;
         for t in &self.triangles {
@@ -64,14 +72,19 @@ impl TriMesh {
                 let ti = cumulative
                     .partition_point(|&c| c < target)
                     .min(self.triangles.len() - 1);
-                let [a, b, c] = self.triangles[ti].map(|i| self.positions[i as usize]);
+                let [a, b, c] = self.corners(ti);
                 let (mut s, mut t) = (r1 as f32, r2 as f32);
                 if s + t > 1.0 {
                     (s, t) = (1.0 - s, 1.0 - t);
                 }
-                a + (b - a) * s + (c - a) * t
+                (a + (b - a) * s + (c - a) * t, ti as u32)
             })
             .collect()
+    }
+
+    /// The corner positions of triangle `t`.
+    pub fn corners(&self, t: usize) -> [Vec3; 3] {
+        self.triangles[t].map(|i| self.positions[i as usize])
     }
 
     /// Appends another mesh, offsetting its indices.
@@ -87,6 +100,40 @@ impl TriMesh {
         self.triangles
             .extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
     }
+}
+
+/// The point of triangle `[a, b, c]` nearest to `p` (Ericson, Real-Time Collision Detection, 5.1.5: by the
+/// Voronoi region of the triangle that holds `p`).
+pub fn closest_point_on_triangle(p: Vec3, [a, b, c]: [Vec3; 3]) -> Vec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
 }
 
 /// Three coordinates of the `k`-th point of an additive recurrence (R3 sequence) in [0, 1)³.
@@ -494,6 +541,44 @@ mod tests {
                 [1.0, 1.0, 1.0],
             ],
             triangles: vec![[0, 1, 2], [0, 2, 3]],
+        }
+    }
+
+    /// The closest point against a dense barycentric grid of the triangle, for points in every Voronoi
+    /// region (corners, edges, face, both sides).
+    #[test]
+    fn closest_point_on_triangle_matches_dense_search() {
+        let tri = [
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.2, 0.0),
+            Vec3::new(0.3, 0.9, 0.1),
+        ];
+        let n = 400;
+        let mut grid = Vec::new();
+        for i in 0..=n {
+            for j in 0..=n - i {
+                let (s, t) = (i as f32 / n as f32, j as f32 / n as f32);
+                grid.push(tri[0] + (tri[1] - tri[0]) * s + (tri[2] - tri[0]) * t);
+            }
+        }
+        for p in [
+            Vec3::new(-0.5, -0.5, 0.3),
+            Vec3::new(1.5, 0.1, -0.2),
+            Vec3::new(0.3, 1.4, 0.0),
+            Vec3::new(0.5, -0.4, 0.2),
+            Vec3::new(0.8, 0.8, -0.3),
+            Vec3::new(-0.3, 0.5, 0.1),
+            Vec3::new(0.4, 0.3, 0.5),
+            Vec3::new(0.4, 0.3, -0.5),
+        ] {
+            let q = closest_point_on_triangle(p, tri);
+            let brute = grid
+                .iter()
+                .map(|g| g.distance(p))
+                .fold(f32::INFINITY, f32::min);
+            let d = q.distance(p);
+            assert!(d <= brute + 1e-6, "{p}: {d} > {brute}");
+            assert!(brute - d < 4e-3, "{p}: {d} vs {brute}");
         }
     }
 

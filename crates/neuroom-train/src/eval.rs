@@ -11,7 +11,7 @@
 
 use crate::augment::Augmentation;
 use crate::dataset::{Aabb, PixelClass, View};
-use crate::mesh_extract::{Chamfer, Grid, chamfer, extract_surface};
+use crate::mesh_extract::{Grid, extract_surface};
 use glam::Vec3;
 use neuroom_core::mesh::TriMesh;
 use neuroom_field::{CodeSet, Codes, NeusField, Outputs, Tape};
@@ -291,11 +291,6 @@ pub fn extract_mesh(field: &NeusField<f32>, bounds: &Aabb, cells: u32) -> TriMes
         s
     };
     extract_surface(&grid, &sdf)
-}
-
-/// Chamfer distance between two meshes, from `samples` points on each.
-pub fn mesh_chamfer(a: &TriMesh, b: &TriMesh, samples: usize) -> Chamfer {
-    chamfer(&a.sample_surface(samples), &b.sample_surface(samples))
 }
 
 /// Held-out figures of a model.

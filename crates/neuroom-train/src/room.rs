@@ -12,9 +12,9 @@
 use crate::augment::Augmentation;
 use crate::config::TrainConfig;
 use crate::dataset::{Aabb, Dataset, LoadOptions, Role};
-use crate::eval::{EvalReport, evaluate, extract_mesh, mesh_chamfer};
+use crate::eval::{EvalReport, evaluate, extract_mesh};
 use crate::losses::LossParts;
-use crate::mesh_extract::Chamfer;
+use crate::mesh_extract::{Chamfer, chamfer};
 use crate::progress::Progress;
 use crate::trainer::{LightCodes, ModelKind, Trainer, field_config};
 use neuroom_core::FormatError;
@@ -399,7 +399,7 @@ pub fn truth_chamfer(
     };
     let truth = read_ply(path)?;
     let learned = extract_mesh(field, bounds, MESH_CELLS);
-    Ok(Some(mesh_chamfer(&learned, &truth, CHAMFER_SAMPLES)))
+    Ok(Some(chamfer(&learned, &truth, CHAMFER_SAMPLES)))
 }
 
 fn write_manifest(dir: &Path, manifest: &Manifest) -> Result<(), TrainError> {

@@ -8,8 +8,8 @@ use neuroom_core::formats::read_capture;
 use neuroom_core::formats::read_room;
 use neuroom_train::augment::Augmentation;
 use neuroom_train::dataset::{Aabb, Dataset, LoadOptions, Role};
-use neuroom_train::eval::{evaluate, extract_mesh, mesh_chamfer};
-use neuroom_train::mesh_extract::{Grid, extract_surface};
+use neuroom_train::eval::{evaluate, extract_mesh};
+use neuroom_train::mesh_extract::{Grid, chamfer, extract_surface};
 use neuroom_train::progress::Quiet;
 use neuroom_train::room::{load_model_data, model_specs, with_threads};
 use neuroom_train::{ModelKind, TrainConfig, Trainer, load_room_models, train_room};
@@ -105,9 +105,9 @@ fn a_ball_is_learned_to_stated_psnr_depth_and_chamfer() {
         &Grid::over(Vec3::splat(-0.2), Vec3::splat(0.2), 64),
         &|p: &[Vec3]| p.iter().map(|x| x.length() - 0.15).collect(),
     );
-    let chamfer = mesh_chamfer(&learned, &truth, 10_000);
+    let distance = chamfer(&learned, &truth, 10_000);
     eprintln!(
-        "ball: {report:?}, chamfer {chamfer:?}, batch PSNR {:.2}, inv_s {}, {:.1} s",
+        "ball: {report:?}, chamfer {distance:?}, batch PSNR {:.2}, inv_s {}, {:.1} s",
         trainer.state.last.psnr(),
         trainer.field.inv_s(),
         start.elapsed().as_secs_f64()
@@ -115,7 +115,7 @@ fn a_ball_is_learned_to_stated_psnr_depth_and_chamfer() {
     assert!(report.psnr_db > 24.0, "{report:?}");
     assert!(report.median_depth_error_m < 0.003, "{report:?}");
     assert!(report.coverage > 0.98, "{report:?}");
-    assert!(chamfer.mean < 0.005, "{chamfer:?}");
+    assert!(distance.mean < 0.005, "{distance:?}");
 }
 
 #[test]
