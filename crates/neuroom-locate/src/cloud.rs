@@ -32,8 +32,8 @@ pub struct Cloud {
 const SUPERSAMPLE: usize = 2;
 
 /// The surface of `field` inside the box of half extents `half`, sampled at `spacing`, coloured with
-/// code rows `codes`. At most one point per cell of `spacing` faces each of the six axis directions, so
-/// both faces of a thin panel are kept.
+/// code rows `codes`. Each cell of `spacing` holds at most one point per facing direction (of the six
+/// axis directions), so both faces of a thin panel are kept.
 pub fn surface_cloud<F: Field>(field: &F, half: Vec3, spacing: f32, codes: CodeSet) -> Cloud {
     let step = spacing / SUPERSAMPLE as f32;
     let n = (2.0 * half / step).ceil().max(Vec3::ONE);
@@ -47,27 +47,30 @@ pub fn surface_cloud<F: Field>(field: &F, half: Vec3, spacing: f32, codes: CodeS
     let mut sdf = vec![0.0; grid.len()];
     let mut grad = vec![Vec3::ZERO; grid.len()];
     field.sdf_gradient(&grid, &mut sdf, &mut grad);
-    // Per (cell, facing), the grid point nearest the surface.
-    let mut nearest: std::collections::HashMap<(IVec3, usize), (f32, usize)> = Default::default();
+    // Per (cell, facing): the mean of the grid points snapped onto the surface, and of their normals
+    // (one grid point per cell would shift the whole cloud towards the cells' first corners), listed in
+    // the order of each cell's first grid point so the cloud does not depend on hashing.
+    let mut cells: std::collections::HashMap<(IVec3, usize), (usize, Vec3, Vec3, f32)> =
+        Default::default();
     for (i, (s, g)) in sdf.iter().zip(&grad).enumerate() {
         if s.abs() >= 0.75 * step || g.length_squared() <= 1e-8 {
             continue;
         }
+        let n = g.normalize();
+        let snapped = (grid[i] - *s * n).clamp(-half, half);
         let cell = ((grid[i] + half) / spacing).floor().as_ivec3();
-        let key = (cell, facing(*g));
-        let best = nearest.entry(key).or_insert((f32::INFINITY, i));
-        if s.abs() < best.0 {
-            *best = (s.abs(), i);
-        }
+        let sum = cells
+            .entry((cell, facing(n)))
+            .or_insert((i, Vec3::ZERO, Vec3::ZERO, 0.0));
+        sum.1 += snapped;
+        sum.2 += n;
+        sum.3 += 1.0;
     }
-    let mut kept: Vec<usize> = nearest.values().map(|(_, i)| *i).collect();
-    kept.sort_unstable();
-    let (points, normals): (Vec<Vec3>, Vec<Vec3>) = kept
+    let mut sums: Vec<(usize, Vec3, Vec3, f32)> = cells.into_values().collect();
+    sums.sort_unstable_by_key(|(first, ..)| *first);
+    let (points, normals): (Vec<Vec3>, Vec<Vec3>) = sums
         .iter()
-        .map(|&i| {
-            let n = grad[i].normalize();
-            ((grid[i] - sdf[i] * n).clamp(-half, half), n)
-        })
+        .map(|(_, p, n, count)| (*p / *count, n.normalize_or_zero()))
         .unzip();
     let dirs: Vec<Vec3> = normals.iter().map(|n| -*n).collect();
     let mut out = FieldOutput::default();
