@@ -37,6 +37,13 @@ pub struct ComposeConfig {
     /// Largest per-channel mismatch between the empty room given to the network and the room in the
     /// panorama (locate's re-shading of the empty room is not exact).
     pub empty_mismatch: f32,
+    /// Smooth changes of the light over the panorama that the empty room does not show (a lamp's glow,
+    /// a shadow, re-shading that is not exact): this many soft blobs of gain…
+    pub glows: usize,
+    /// …each with a log-gain in this range (linear light)…
+    pub glow_log_gain: [f32; 2],
+    /// …and a radius in this range (fractions of the panorama's width).
+    pub glow_radius: [f32; 2],
     /// Largest amplitude of the per-pixel noise (sRGB).
     pub noise: f32,
     /// Chance that the panorama is blurred a little.
@@ -54,6 +61,9 @@ impl Default for ComposeConfig {
             object_gain: [0.7, 1.35],
             object_shift: 0.04,
             empty_mismatch: 0.06,
+            glows: 3,
+            glow_log_gain: [-0.5, 0.6],
+            glow_radius: [0.03, 0.25],
             noise: 0.03,
             blur_probability: 0.5,
             occlusion_tolerance: 0.05,
@@ -124,6 +134,10 @@ pub fn compose<F: Field>(
         &mut labels,
         &mut rng,
     );
+    let glow = glow_field(config, w, h, &mut rng);
+    for (c, g) in query.iter_mut().zip(&glow) {
+        *c = lit(*c, [*g; 3]);
+    }
     if rng.random_bool(config.blur_probability) {
         query = blur(&query, w, h);
     }
@@ -157,6 +171,33 @@ pub fn compose<F: Field>(
 fn random_light(config: &ComposeConfig, rng: &mut Pcg64) -> [f32; 3] {
     let gain = rng.random_range(config.light_gain[0]..=config.light_gain[1]);
     std::array::from_fn(|_| gain * (1.0 + rng.random_range(-1.0..=1.0) * config.light_tint))
+}
+
+/// Per pixel, the gain of a few soft random blobs of light or shade ([`ComposeConfig::glows`]);
+/// distances wrap around across columns.
+fn glow_field(config: &ComposeConfig, w: usize, h: usize, rng: &mut Pcg64) -> Vec<f32> {
+    let blobs: Vec<(f32, f32, f32, f32)> = (0..config.glows)
+        .map(|_| {
+            let u = rng.random_range(0.0..w as f32);
+            let v = rng.random_range(0.0..h as f32);
+            let radius = w as f32 * rng.random_range(config.glow_radius[0]..=config.glow_radius[1]);
+            let log_gain = rng.random_range(config.glow_log_gain[0]..=config.glow_log_gain[1]);
+            (u, v, radius, log_gain)
+        })
+        .collect();
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+            let sum: f32 = blobs
+                .iter()
+                .map(|&(u, v, r, g)| {
+                    let du = (x - u).abs().min(w as f32 - (x - u).abs());
+                    g * (-(du * du + (y - v) * (y - v)) / (2.0 * r * r)).exp()
+                })
+                .sum();
+            sum.exp()
+        })
+        .collect()
 }
 
 /// An sRGB colour under per-channel linear gains.

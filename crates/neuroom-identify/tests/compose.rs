@@ -93,6 +93,7 @@ fn plain() -> ComposeConfig {
         object_gain: [1.0, 1.0],
         object_shift: 0.0,
         empty_mismatch: 0.0,
+        glows: 0,
         noise: 0.0,
         blur_probability: 0.0,
         ..ComposeConfig::default()

@@ -9,7 +9,7 @@ use neuroom_identify::train::{Adam, TrainLog};
 use neuroom_identify::{
     DetectConfig, NETWORK_FILE, NetConfig, Network, NetworkDetector, Sample, TrainSettings, train,
 };
-use neuroom_locate::evidence::{Detector, View};
+use neuroom_locate::evidence::{Detection, Detector, View};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -147,6 +147,28 @@ fn training_lowers_the_loss_and_then_segments_the_squares() {
             d.pixels.len()
         );
     }
+
+    // Naming another detector's regions: a region over the whole view is named by each present model;
+    // a region over bare room stays unnamed.
+    let label_of =
+        |p: u32| sample.labels[(p as usize / (2 * W) / 2) * W + (p as usize % (2 * W)) / 2];
+    let all = Detection {
+        pixels: (0..(4 * W * H) as u32).collect(),
+        model: None,
+    };
+    let bare = Detection {
+        pixels: (0..(4 * W * H) as u32)
+            .filter(|&p| label_of(p) == BACKGROUND)
+            .collect(),
+        model: None,
+    };
+    let named = detector.name_regions(&view, vec![all, bare.clone()]);
+    let mut models: Vec<Option<usize>> = named.iter().map(|d| d.model).collect();
+    models.sort();
+    let mut expected: Vec<Option<usize>> = present.iter().map(|m| Some(*m)).collect();
+    expected.insert(0, None);
+    assert_eq!(models, expected);
+    assert!(named.contains(&bare));
 }
 
 #[test]

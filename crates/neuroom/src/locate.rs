@@ -148,6 +148,9 @@ pub enum DetectorChoice {
     Residual,
     /// The identification network (`identify.safetensors`); an error when the folder lacks it.
     Network,
+    /// The residual detector's regions, each named by the models the network sees in it
+    /// ([`NetworkDetector::name_regions`]); an error when the folder lacks the network.
+    Named,
     /// The network when the model folder holds one, else the residual.
     Auto,
 }
@@ -159,9 +162,10 @@ impl std::str::FromStr for DetectorChoice {
         match s {
             "residual" => Ok(Self::Residual),
             "network" => Ok(Self::Network),
+            "named" => Ok(Self::Named),
             "auto" => Ok(Self::Auto),
             _ => Err(format!(
-                "unknown detector `{s}` (residual, network or auto)"
+                "unknown detector `{s}` (residual, network, named or auto)"
             )),
         }
     }
@@ -296,7 +300,7 @@ impl LocateContext {
         let network = match config.detection {
             DetectorChoice::Residual => None,
             DetectorChoice::Auto => crate::identify::load_network(models, &loaded)?,
-            DetectorChoice::Network => Some(
+            DetectorChoice::Network | DetectorChoice::Named => Some(
                 crate::identify::load_network(models, &loaded)?.with_context(|| {
                     format!(
                         "{}: missing; `neuroom train` builds it",
@@ -354,11 +358,17 @@ pub fn locate_image(
         empty_depth,
     };
     let detections = match &ctx.network {
-        Some(network) => NetworkDetector {
-            network,
-            config: config.network.clone(),
+        Some(network) => {
+            let named = NetworkDetector {
+                network,
+                config: config.network.clone(),
+            };
+            if config.detection == DetectorChoice::Named {
+                named.name_regions(&view, config.detector.detect(&view))
+            } else {
+                named.detect(&view)
+            }
         }
-        .detect(&view),
         None => config.detector.detect(&view),
     };
     let input = SearchInput {

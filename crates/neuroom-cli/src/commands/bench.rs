@@ -59,8 +59,8 @@ struct LocateArgs {
     #[arg(long)]
     no_shading: bool,
     /// Detector of the object regions: `residual` (difference with the empty room), `network` (the
-    /// identification network `neuroom train` stores beside the models) or `auto` (the network when
-    /// present).
+    /// identification network `neuroom train` stores beside the models), `named` (the residual's
+    /// regions named by the network) or `auto` (the network when present).
     #[arg(long)]
     detector: Option<neuroom::locate::DetectorChoice>,
     /// Print one JSON object per panorama and one for the mean, after the text.

@@ -27,7 +27,8 @@ pub struct Args {
     #[arg(short, long)]
     out: PathBuf,
     /// Detector of the object regions: `residual`, `network` (the identification network stored with
-    /// the models) or `auto` (the network when present).
+    /// the models), `named` (the residual's regions named by the network) or `auto` (the network when
+    /// present).
     #[arg(long)]
     detector: Option<neuroom::locate::DetectorChoice>,
     /// Stop after the initial poses (no holistic fit).
