@@ -38,7 +38,7 @@ pub struct Args {
     #[arg(long)]
     cpu_clock: bool,
     /// Time budget of the object identification network, seconds (trained after the models and the
-    /// localization database; 0 = do not build it). Default: 120.
+    /// localization database; 0 = do not build it). Default: 600.
     #[arg(long)]
     identify_seconds: Option<f64>,
     /// Print the summary as JSON.
