@@ -163,14 +163,11 @@ impl Weights {
         }
     }
 
-    /// Whether the shapes match `config`.
-    pub fn fits(&self, config: &NetConfig) -> bool {
-        let specs = config.layers();
-        specs.len() == self.layers.len()
-            && specs
-                .iter()
-                .zip(&self.layers)
-                .all(|(s, (w, b))| w.len() == s.weight_len() && b.len() == s.outputs)
+    /// Whether every value is finite.
+    pub fn is_finite(&self) -> bool {
+        self.layers
+            .iter()
+            .all(|(w, b)| w.iter().chain(b).all(|v| v.is_finite()))
     }
 }
 

@@ -188,13 +188,14 @@ pub fn train(
         let rate = settings.learning_rate
             * (0.05 + 0.95 * 0.5 * (1.0 + (std::f64::consts::PI * frac).cos()) as f32);
         let (loss, grads) = loss_and_gradients(config, &weights, &batch, settings, &device);
-        if loss.is_finite() {
+        // A step whose loss or gradient is not finite is skipped: the weights stay as they were.
+        if loss.is_finite() && grads.is_finite() {
             adam.step(&mut weights, &grads, rate);
+            window.push(loss);
         }
         log.steps += 1;
         log.seconds = already + start.elapsed().as_secs_f64();
-        window.push(loss);
-        if log.steps.is_multiple_of(10) || finished(&log, settings) {
+        if (log.steps.is_multiple_of(10) || finished(&log, settings)) && !window.is_empty() {
             log.losses
                 .push((log.steps, window.iter().sum::<f32>() / window.len() as f32));
             window.clear();

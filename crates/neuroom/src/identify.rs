@@ -39,23 +39,21 @@ pub fn object_model_names(loaded: &RoomModels) -> Vec<String> {
 }
 
 /// Trains (or resumes training) the identification network of the room at `room` with the models
-/// in `models`, writes it to `identify.safetensors` and removes the checkpoint. `progress` sees every
-/// step.
+/// in `models`, writes it to `identify.safetensors` and removes the checkpoint; `None` when the room
+/// has no object model to identify. `progress` sees every step.
 pub fn build_identify_network(
     room: &Path,
     models: &Path,
     settings: &TrainSettings,
     progress: &mut dyn FnMut(&Tick),
-) -> anyhow::Result<Network> {
+) -> anyhow::Result<Option<Network>> {
     let room_json = read_room(room)?;
     let database = ensure_database(models, &Default::default(), &mut |_, _| {})?;
     let loaded = load_models(models)?;
     let objects = object_models(&room_json, &loaded)?;
-    anyhow::ensure!(
-        !objects.is_empty(),
-        "{}: the room has no object model to identify",
-        models.display()
-    );
+    if objects.is_empty() {
+        return Ok(None);
+    }
     let scene = empty_scene(&loaded)?;
     let field = &scene.models[scene.background.model].field;
     let source = RoomSource::new(field, &database).with_context(|| {
@@ -77,7 +75,7 @@ pub fn build_identify_network(
         std::fs::remove_file(&checkpoint)
             .with_context(|| format!("{}: cannot remove", checkpoint.display()))?;
     }
-    Ok(network)
+    Ok(Some(network))
 }
 
 /// The network of a model folder when it has one.

@@ -104,7 +104,10 @@ fn build_identify_network(
             &format!("step {} loss {:.4}", tick.steps, tick.loss),
         );
     })?;
-    progress.finish(&describe_network(&network));
+    progress.finish(&match network {
+        Some(network) => describe_network(&network),
+        None => "no object model to identify".to_string(),
+    });
     Ok(())
 }
 
