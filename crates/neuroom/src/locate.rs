@@ -17,7 +17,7 @@ use neuroom_field::{CodeSet, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
 use neuroom_identify::{DetectConfig, Network, NetworkDetector};
 use neuroom_locate::cloud::{FreeSpace, carve, surface_cloud};
-use neuroom_locate::evidence::{Detector, ResidualDetector, View};
+use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View};
 use neuroom_locate::objects::{
     Found, ObjectModel, Placement, SearchConfig, SearchInput, find_objects,
 };
@@ -357,20 +357,7 @@ pub fn locate_image(
         empty,
         empty_depth,
     };
-    let detections = match &ctx.network {
-        Some(network) => {
-            let named = NetworkDetector {
-                network,
-                config: config.network.clone(),
-            };
-            if config.detection == DetectorChoice::Named {
-                named.name_regions(&view, config.detector.detect(&view))
-            } else {
-                named.detect(&view)
-            }
-        }
-        None => config.detector.detect(&view),
-    };
+    let detections = detect_objects(ctx, &view, config);
     let input = SearchInput {
         empty: &ctx.scene,
         view: &view,
@@ -408,6 +395,23 @@ pub fn locate_image(
         seconds: [(t1 - t0).as_secs_f64(), t1.elapsed().as_secs_f64()],
     };
     Ok((arrangement, located))
+}
+
+/// The object regions of `view` by the detector `config` chooses: the network's (alone, or naming the
+/// residual detector's regions) when `ctx` holds one, else the residual detector's.
+fn detect_objects(ctx: &LocateContext, view: &View, config: &LocateConfig) -> Vec<Detection> {
+    let Some(network) = &ctx.network else {
+        return config.detector.detect(view);
+    };
+    let detector = NetworkDetector {
+        network,
+        config: config.network.clone(),
+    };
+    if config.detection == DetectorChoice::Named {
+        detector.name_regions(view, config.detector.detect(view))
+    } else {
+        detector.detect(view)
+    }
 }
 
 /// What `neuroom locate` wrote.
