@@ -19,7 +19,7 @@ fn train_command(out: &Path) -> Command {
         .arg("--out")
         .arg(out)
         .args(["--object-steps", "40", "--background-steps", "40"])
-        .args(["--threads", "1", "--seed", "5"]);
+        .args(["--threads", "1", "--seed", "5", "--identify-seconds", "3"]);
     c
 }
 

@@ -166,7 +166,7 @@ fn candidate_positions<F: Field>(scene: &Scene<F>, config: &DatabaseConfig) -> V
 }
 
 /// Height of the first surface straight below `start` (sphere tracing down to `bottom`).
-pub(crate) fn floor_below<F: Field>(field: &F, start: Vec3, bottom: f32) -> Option<f32> {
+pub fn floor_below<F: Field>(field: &F, start: Vec3, bottom: f32) -> Option<f32> {
     let mut p = start;
     let mut sdf = [0.0f32];
     field.sdf(&[p], &mut sdf);

@@ -12,6 +12,9 @@ pub trait Progress: Sync {
     fn step(&self, step: u64, total: u64, loss: &LossParts);
     /// The model finished; `message` sums it up.
     fn finish(&self, message: &str);
+    /// Progress of a stage that is not a model's training (e.g. the identification network): `position`
+    /// of `total` units, and what to show beside the bar.
+    fn note(&self, _position: u64, _total: u64, _message: &str) {}
 }
 
 /// Reports nothing.
@@ -55,6 +58,14 @@ impl Progress for Bar {
                     loss.psnr()
                 ));
             }
+        }
+    }
+
+    fn note(&self, position: u64, total: u64, message: &str) {
+        if let Some(bar) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            bar.set_length(total);
+            bar.set_position(position.min(total));
+            bar.set_message(message.to_string());
         }
     }
 

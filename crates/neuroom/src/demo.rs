@@ -180,6 +180,8 @@ fn train_options(config: &DemoConfig) -> TrainOptions {
             object_seconds: Some(15.0),
             background_seconds: Some(30.0),
             seed: Some(config.seed),
+            // The demo locates with the residual detector: no identification network.
+            identify_seconds: Some(0.0),
             ..TrainOptions::default()
         },
         // Seven object models and the room in about eight minutes on 2 cores; `neuroom train` uses the
@@ -188,6 +190,7 @@ fn train_options(config: &DemoConfig) -> TrainOptions {
             object_seconds: Some(50.0),
             background_seconds: Some(120.0),
             seed: Some(config.seed),
+            identify_seconds: Some(0.0),
             ..TrainOptions::default()
         },
     }

@@ -9,6 +9,7 @@ pub mod edit;
 pub mod eval;
 pub mod export;
 pub mod fit;
+pub mod identify;
 pub mod inspect;
 pub mod locate;
 pub mod relight;

@@ -15,8 +15,9 @@ use neuroom_core::metrics::ArrangementScore;
 use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
+use neuroom_identify::{DetectConfig, Network, NetworkDetector};
 use neuroom_locate::cloud::{FreeSpace, carve, surface_cloud};
-use neuroom_locate::evidence::{Detector, ResidualDetector, View};
+use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View};
 use neuroom_locate::objects::{
     Found, ObjectModel, Placement, SearchConfig, SearchInput, find_objects,
 };
@@ -111,8 +112,12 @@ pub struct LocateConfig {
     /// Re-shade that rendering to the panorama's lighting by a gain depending on the surface normal
     /// ([`match_shading`]) before objects are searched; otherwise only a global per-channel gain.
     pub match_shading: bool,
+    /// Which detector finds the object regions.
+    pub detection: DetectorChoice,
     /// Object detection from the difference with the empty room.
     pub detector: ResidualDetector,
+    /// Thresholds of the identification network's detector.
+    pub network: DetectConfig,
     /// Pose hypotheses and their selection.
     pub search: SearchConfig,
 }
@@ -126,8 +131,42 @@ impl Default for LocateConfig {
             render: LocalizeConfig::default().render,
             empty_blur: 0.7,
             match_shading: true,
+            detection: DetectorChoice::default(),
             detector: ResidualDetector::default(),
+            network: DetectConfig::default(),
             search: SearchConfig::default(),
+        }
+    }
+}
+
+/// Which detector finds where objects are seen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DetectorChoice {
+    /// Where the panorama differs from the empty room ([`ResidualDetector`]); regions name no model.
+    #[default]
+    Residual,
+    /// The identification network (`identify.safetensors`); an error when the folder lacks it.
+    Network,
+    /// The residual detector's regions, each named by the models the network sees in it
+    /// ([`NetworkDetector::name_regions`]); an error when the folder lacks the network.
+    Named,
+    /// The network when the model folder holds one, else the residual.
+    Auto,
+}
+
+impl std::str::FromStr for DetectorChoice {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "residual" => Ok(Self::Residual),
+            "network" => Ok(Self::Network),
+            "named" => Ok(Self::Named),
+            "auto" => Ok(Self::Auto),
+            _ => Err(format!(
+                "unknown detector `{s}` (residual, network, named or auto)"
+            )),
         }
     }
 }
@@ -246,6 +285,8 @@ pub struct LocateContext {
     pub database: Database,
     /// Searchable object models, in manifest order of the object models.
     pub objects: Vec<ObjectModel>,
+    /// The identification network, when the model folder holds one and the detector choice uses it.
+    pub network: Option<Network>,
 }
 
 impl LocateContext {
@@ -256,11 +297,24 @@ impl LocateContext {
         let loaded = load_models(models)?;
         let objects = object_models(&room, &loaded)?;
         let scene = empty_scene(&loaded)?;
+        let network = match config.detection {
+            DetectorChoice::Residual => None,
+            DetectorChoice::Auto => crate::identify::load_network(models, &loaded)?,
+            DetectorChoice::Network | DetectorChoice::Named => Some(
+                crate::identify::load_network(models, &loaded)?.with_context(|| {
+                    format!(
+                        "{}: missing; `neuroom train` builds it",
+                        crate::identify::network_path(models).display()
+                    )
+                })?,
+            ),
+        };
         Ok(Self {
             room,
             scene,
             database,
             objects,
+            network,
         })
     }
 }
@@ -303,7 +357,7 @@ pub fn locate_image(
         empty,
         empty_depth,
     };
-    let detections = config.detector.detect(&view);
+    let detections = detect_objects(ctx, &view, config);
     let input = SearchInput {
         empty: &ctx.scene,
         view: &view,
@@ -341,6 +395,23 @@ pub fn locate_image(
         seconds: [(t1 - t0).as_secs_f64(), t1.elapsed().as_secs_f64()],
     };
     Ok((arrangement, located))
+}
+
+/// The object regions of `view` by the detector `config` chooses: the network's (alone, or naming the
+/// residual detector's regions) when `ctx` holds one, else the residual detector's.
+fn detect_objects(ctx: &LocateContext, view: &View, config: &LocateConfig) -> Vec<Detection> {
+    let Some(network) = &ctx.network else {
+        return config.detector.detect(view);
+    };
+    let detector = NetworkDetector {
+        network,
+        config: config.network.clone(),
+    };
+    if config.detection == DetectorChoice::Named {
+        detector.name_regions(view, config.detector.detect(view))
+    } else {
+        detector.detect(view)
+    }
 }
 
 /// What `neuroom locate` wrote.

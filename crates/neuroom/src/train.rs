@@ -2,6 +2,8 @@
 
 use std::path::Path;
 
+use neuroom_identify::TrainSettings;
+
 pub use neuroom_train::progress::{
     Bar as TrainBar, Progress as TrainProgress, Quiet as TrainQuiet,
 };
@@ -24,6 +26,9 @@ pub struct TrainOptions {
     pub seed: Option<u64>,
     /// Count the budgets in CPU seconds per worker thread (see [`neuroom_train::BudgetClock::Cpu`]).
     pub cpu_clock: bool,
+    /// Wall-clock budget of the identification network, seconds (default
+    /// [`TrainSettings::default`]'s; 0 = do not build it).
+    pub identify_seconds: Option<f64>,
 }
 
 impl TrainOptions {
@@ -67,8 +72,62 @@ pub fn train_room(
     let summary = neuroom_train::train_room(room, models, &config, progress)?;
     if summary.manifest.complete {
         build_locate_database(&summary.dir, progress);
+        let mut settings = TrainSettings::default();
+        settings.seconds = options.identify_seconds.unwrap_or(settings.seconds);
+        if let Some(seed) = options.seed {
+            settings.seed = seed;
+        }
+        if settings.seconds > 0.0 {
+            build_identify_network(room, &summary.dir, &settings, progress)?;
+        }
     }
     Ok(summary)
+}
+
+/// Trains the identification network once the localization database is there (kept when it is already
+/// built; resumed from its checkpoint when interrupted).
+fn build_identify_network(
+    room: &Path,
+    dir: &Path,
+    settings: &TrainSettings,
+    progress: &dyn TrainProgress,
+) -> anyhow::Result<()> {
+    if crate::identify::network_path(dir).exists() || !crate::locate::database_path(dir).exists() {
+        return Ok(());
+    }
+    let total = settings.seconds.ceil() as u64;
+    progress.start("identify network", 0, total);
+    let network = crate::identify::build_identify_network(room, dir, settings, &mut |tick| {
+        progress.note(
+            tick.seconds as u64,
+            total,
+            &format!("step {} loss {:.4}", tick.steps, tick.loss),
+        );
+    })?;
+    progress.finish(&match network {
+        Some(network) => describe_network(&network),
+        None => "no object model to identify".to_string(),
+    });
+    Ok(())
+}
+
+/// One line describing a trained identification network.
+pub fn describe_network(network: &neuroom_identify::Network) -> String {
+    let Some(report) = &network.report else {
+        return format!("{} classes", network.config.classes);
+    };
+    let losses = &report.log.losses;
+    let first = losses.first().map_or(f32::NAN, |l| l.1);
+    let last = losses.last().map_or(f32::NAN, |l| l.1);
+    format!(
+        "{} steps in {:.0} s, loss {first:.3} → {last:.3}; held-out pixels {:.1} % right, objects: \
+         recall {:.1} %, precision {:.1} %",
+        report.log.steps,
+        report.log.seconds,
+        100.0 * report.accuracy.pixel,
+        100.0 * report.accuracy.object_recall,
+        100.0 * report.accuracy.object_precision
+    )
 }
 
 /// Renders the camera-localization database of `neuroom locate` once every model is trained (kept when

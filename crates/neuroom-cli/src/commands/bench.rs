@@ -58,6 +58,11 @@ struct LocateArgs {
     /// surface normal (the ablation of that step).
     #[arg(long)]
     no_shading: bool,
+    /// Detector of the object regions: `residual` (difference with the empty room), `network` (the
+    /// identification network `neuroom train` stores beside the models), `named` (the residual's
+    /// regions named by the network) or `auto` (the network when present).
+    #[arg(long)]
+    detector: Option<neuroom::locate::DetectorChoice>,
     /// Print one JSON object per panorama and one for the mean, after the text.
     #[arg(long)]
     json: bool,
@@ -264,9 +269,11 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
 
 /// `neuroom bench locate`: camera, identification and initial-pose scores per panorama and their mean.
 fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
+    let defaults = neuroom::locate::LocateConfig::default();
     let config = neuroom::locate::LocateConfig {
         match_shading: !a.no_shading,
-        ..Default::default()
+        detection: a.detector.unwrap_or(defaults.detection),
+        ..defaults
     };
     let (_, mean) = neuroom::locate::bench_locate(&a.room, &a.models, &config, &mut |s| {
         println!(

@@ -26,6 +26,11 @@ pub struct Args {
     /// Output arrangement JSON.
     #[arg(short, long)]
     out: PathBuf,
+    /// Detector of the object regions: `residual`, `network` (the identification network stored with
+    /// the models), `named` (the residual's regions named by the network) or `auto` (the network when
+    /// present).
+    #[arg(long)]
+    detector: Option<neuroom::locate::DetectorChoice>,
     /// Stop after the initial poses (no holistic fit).
     #[arg(long)]
     no_fit: bool,
@@ -45,13 +50,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .appearance_iterations
         .unwrap_or(fit.appearance_iterations);
     let total = (fit.pose_iterations + fit.appearance_iterations) as u64;
+    let defaults = LocateConfig::default();
+    let config = LocateConfig {
+        detection: args.detector.unwrap_or(defaults.detection),
+        ..defaults
+    };
     let mut bars = StageBars::new();
     let outputs = neuroom::locate::locate(
         &args.room,
         &args.models,
         &args.panorama,
         &args.out,
-        &LocateConfig::default(),
+        &config,
         (!args.no_fit).then_some(&fit),
         &mut |log| bars.update("fit", log.iteration as u64 + 1, total),
     )?;

@@ -37,6 +37,10 @@ pub struct Args {
     /// other programs on a busy machine do not shrink the training.
     #[arg(long)]
     cpu_clock: bool,
+    /// Time budget of the object identification network, seconds (trained after the models and the
+    /// localization database; 0 = do not build it). Default: 600.
+    #[arg(long)]
+    identify_seconds: Option<f64>,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -52,6 +56,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         threads: args.threads,
         seed: args.seed,
         cpu_clock: args.cpu_clock,
+        identify_seconds: args.identify_seconds,
     };
     let summary =
         neuroom::train::train_room(&args.room, &args.out, &options, &TrainBar::default())?;
@@ -66,6 +71,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         for m in &summary.manifest.models {
             println!("  {}", neuroom::train::describe_model(m));
+        }
+        if let Some(network) = neuroom::identify::read_network(&summary.dir)? {
+            println!(
+                "  {:<14} {}",
+                "identify",
+                neuroom::train::describe_network(&network)
+            );
         }
     }
     Ok(())
