@@ -6,7 +6,7 @@
 //! from a few views may hold surfaces where its captures saw through (floaters); [`carve`] removes
 //! them with the captures' depth.
 
-use glam::{IVec3, Mat3, Vec3};
+use glam::{Mat3, Vec3};
 use neuroom_core::camera::{CameraModel, Pinhole};
 use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, Field, FieldOutput, Query};
@@ -26,51 +26,29 @@ pub struct Cloud {
     pub spacing: f32,
 }
 
-/// The SDF is evaluated on a grid this many times finer than a cloud's spacing. On a grid of the spacing
-/// itself, a panel thinner than it (a desk's 2.4 cm side panel at 3.6 cm) has every grid point nearest
-/// to one face, and the other face, the one a camera on that side sees, had almost no points.
-const SUPERSAMPLE: usize = 2;
-
 /// The surface of `field` inside the box of half extents `half`, sampled at `spacing`, coloured with
-/// code rows `codes`. Each cell of `spacing` holds at most one point per facing direction (of the six
-/// axis directions), so both faces of a thin panel are kept.
+/// code rows `codes`.
 pub fn surface_cloud<F: Field>(field: &F, half: Vec3, spacing: f32, codes: CodeSet) -> Cloud {
-    let step = spacing / SUPERSAMPLE as f32;
-    let n = (2.0 * half / step).ceil().max(Vec3::ONE);
+    let n = (2.0 * half / spacing).ceil().max(Vec3::ONE);
     let (nx, ny, nz) = (n.x as usize, n.y as usize, n.z as usize);
     let grid: Vec<Vec3> = (0..nx * ny * nz)
         .map(|i| {
             let (x, y, z) = (i % nx, (i / nx) % ny, i / (nx * ny));
-            -half + step * (Vec3::new(x as f32, y as f32, z as f32) + 0.5)
+            -half + spacing * (Vec3::new(x as f32, y as f32, z as f32) + 0.5)
         })
         .collect();
     let mut sdf = vec![0.0; grid.len()];
     let mut grad = vec![Vec3::ZERO; grid.len()];
     field.sdf_gradient(&grid, &mut sdf, &mut grad);
-    // Per (cell, facing): the mean of the grid points snapped onto the surface, and of their normals
-    // (one grid point per cell would shift the whole cloud towards the cells' first corners), listed in
-    // the order of each cell's first grid point so the cloud does not depend on hashing.
-    let mut cells: std::collections::HashMap<(IVec3, usize), (usize, Vec3, Vec3, f32)> =
-        Default::default();
-    for (i, (s, g)) in sdf.iter().zip(&grad).enumerate() {
-        if s.abs() >= 0.75 * step || g.length_squared() <= 1e-8 {
-            continue;
-        }
-        let n = g.normalize();
-        let snapped = (grid[i] - *s * n).clamp(-half, half);
-        let cell = ((grid[i] + half) / spacing).floor().as_ivec3();
-        let sum = cells
-            .entry((cell, facing(n)))
-            .or_insert((i, Vec3::ZERO, Vec3::ZERO, 0.0));
-        sum.1 += snapped;
-        sum.2 += n;
-        sum.3 += 1.0;
-    }
-    let mut sums: Vec<(usize, Vec3, Vec3, f32)> = cells.into_values().collect();
-    sums.sort_unstable_by_key(|(first, ..)| *first);
-    let (points, normals): (Vec<Vec3>, Vec<Vec3>) = sums
+    let (points, normals): (Vec<Vec3>, Vec<Vec3>) = grid
         .iter()
-        .map(|(_, p, n, count)| (*p / *count, n.normalize_or_zero()))
+        .zip(&sdf)
+        .zip(&grad)
+        .filter(|((_, s), g)| s.abs() < 0.75 * spacing && g.length_squared() > 1e-8)
+        .map(|((p, s), g)| {
+            let n = g.normalize();
+            ((*p - *s * n).clamp(-half, half), n)
+        })
         .unzip();
     let dirs: Vec<Vec3> = normals.iter().map(|n| -*n).collect();
     let mut out = FieldOutput::default();
@@ -94,19 +72,6 @@ pub fn surface_cloud<F: Field>(field: &F, half: Vec3, spacing: f32, codes: CodeS
         normals,
         spacing,
     }
-}
-
-/// Which of the six axis directions (±x, ±y, ±z) `normal` is nearest to.
-fn facing(normal: Vec3) -> usize {
-    let a = normal.abs();
-    let axis = if a.x >= a.y && a.x >= a.z {
-        0
-    } else if a.y >= a.z {
-        1
-    } else {
-        2
-    };
-    2 * axis + usize::from(normal[axis] < 0.0)
 }
 
 /// What one capture frame knows of a model's free space: along the ray of each pixel, no surface of
@@ -352,37 +317,6 @@ mod tests {
         for (p, c) in cloud.points.iter().zip(&cloud.colors) {
             assert!((p.abs().max_element() - 0.25).abs() < 0.02, "{p}");
             assert!((c.x - 0.8).abs() < 1e-5);
-        }
-    }
-
-    /// A panel thinner than the spacing (6 mm at 3.6 cm): both its faces get points, with outward
-    /// normals, each face covered about once per spacing². It stands where a grid of the spacing itself
-    /// has a point 2 mm outside one face and none within 2.7 cm (0.75 spacing) of the other.
-    #[test]
-    fn both_faces_of_a_thin_panel_are_kept() {
-        let panel = AnalyticField::Cuboid {
-            centre: Vec3::new(0.015, 0.0, 0.0),
-            half: Vec3::new(0.003, 0.2, 0.2),
-            color: AnalyticColor::Constant(Vec3::ONE),
-        };
-        let spacing = 0.036;
-        let cloud = surface_cloud(&panel, Vec3::splat(0.25), spacing, CodeSet::default());
-        let per_face = (0.4f32 / spacing).powi(2);
-        for side in [1.0f32, -1.0] {
-            let face: Vec<&Vec3> = cloud
-                .points
-                .iter()
-                .zip(&cloud.normals)
-                .filter(|(_, n)| n.x * side > 0.9)
-                .map(|(p, _)| p)
-                .collect();
-            let x = 0.015 + side * 0.003;
-            assert!(face.iter().all(|p| (p.x - x).abs() < 1e-4), "side {side}");
-            assert!(
-                face.len() as f32 > 0.8 * per_face && (face.len() as f32) < 2.5 * per_face,
-                "side {side}: {} points for {per_face} cells",
-                face.len()
-            );
         }
     }
 
