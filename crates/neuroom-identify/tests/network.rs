@@ -73,6 +73,17 @@ fn settings(steps: u64) -> TrainSettings {
     }
 }
 
+/// A freshly initialised network of [`config`] over [`names`].
+fn untrained() -> Network {
+    let config = config();
+    Network {
+        config: config.clone(),
+        models: names(),
+        weights: Weights::init(&config, 3),
+        report: None,
+    }
+}
+
 fn names() -> Vec<String> {
     vec!["red".to_string(), "blue".to_string()]
 }
@@ -226,17 +237,12 @@ fn an_interrupted_training_resumes_from_its_checkpoint() {
 #[test]
 fn the_network_and_its_checkpoint_round_trip() {
     let dir = tempfile::tempdir().unwrap();
-    let config = config();
-    let network = Network {
-        config: config.clone(),
-        models: names(),
-        weights: Weights::init(&config, 3),
-        report: None,
-    };
+    let network = untrained();
     let path = dir.path().join(NETWORK_FILE);
     network.write(&path).unwrap();
     assert_eq!(Network::read(&path).unwrap(), network);
 
+    let config = config();
     let adam = Adam {
         m: Weights::init(&config, 4),
         v: Weights::init(&config, 5),
@@ -282,13 +288,7 @@ fn a_missing_or_corrupt_network_file_is_named() {
         "{err}"
     );
 
-    let config = config();
-    let network = Network {
-        config: config.clone(),
-        models: names(),
-        weights: Weights::init(&config, 3),
-        report: None,
-    };
+    let network = untrained();
     network.write(&path).unwrap();
     let mut bytes = std::fs::read(&path).unwrap();
     bytes.truncate(bytes.len() - 100);
