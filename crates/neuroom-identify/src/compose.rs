@@ -5,12 +5,13 @@
 //! object, with a little blur and noise, turned to a random heading. Each pixel is labelled with the model
 //! of the nearest splatted object, or background.
 
-use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
+use neuroom_core::image::RgbImage;
 use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
 use neuroom_locate::cloud::{ZBuffer, splat};
 use neuroom_locate::database::{Database, Entry};
+use neuroom_locate::evidence::relit;
 use neuroom_locate::objects::ObjectModel;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -121,7 +122,7 @@ pub fn compose<F: Field>(
     let placed = place_objects(room, entry, models, &config.place, &mut rng);
     let light = random_light(config, &mut rng);
     let (w, h) = (room.database.width, room.database.height);
-    let mut query: Vec<[f32; 3]> = entry.rgb.data.iter().map(|c| lit(*c, light)).collect();
+    let mut query: Vec<[f32; 3]> = entry.rgb.data.iter().map(|c| relit(*c, light)).collect();
     let mut labels = vec![BACKGROUND; w * h];
     draw_objects(
         entry,
@@ -136,7 +137,7 @@ pub fn compose<F: Field>(
     );
     let glow = glow_field(config, w, h, &mut rng);
     for (c, g) in query.iter_mut().zip(&glow) {
-        *c = lit(*c, [*g; 3]);
+        *c = relit(*c, [*g; 3]);
     }
     if rng.random_bool(config.blur_probability) {
         query = blur(&query, w, h);
@@ -148,7 +149,7 @@ pub fn compose<F: Field>(
         .rgb
         .data
         .iter()
-        .map(|c| lit(*c, std::array::from_fn(|k| light[k] * mismatch[k])))
+        .map(|c| relit(*c, std::array::from_fn(|k| light[k] * mismatch[k])))
         .collect();
     let shift = rng.random_range(0..w);
     Sample {
@@ -200,11 +201,6 @@ fn glow_field(config: &ComposeConfig, w: usize, h: usize, rng: &mut Pcg64) -> Ve
         .collect()
 }
 
-/// An sRGB colour under per-channel linear gains.
-fn lit(color: [f32; 3], gains: [f32; 3]) -> [f32; 3] {
-    std::array::from_fn(|c| linear_to_srgb((srgb_to_linear(color[c]) * gains[c]).clamp(0.0, 1.0)))
-}
-
 /// Splats every placed object, nearest first per pixel, into `query` and `labels`; rim pixels mix
 /// the object with what lies behind.
 #[allow(clippy::too_many_arguments)]
@@ -245,7 +241,7 @@ fn draw_objects(
             nearest[p] = sil.depths[k];
             let c = sil.colors[k].to_array();
             let toned: [f32; 3] = std::array::from_fn(|i| (c[i] + shift[i]).clamp(0.0, 1.0));
-            let object = lit(toned, light.map(|l| l * gain));
+            let object = relit(toned, light.map(|l| l * gain));
             query[p] = if sil.rim[k] {
                 std::array::from_fn(|i| 0.5 * (object[i] + background[p][i]))
             } else {

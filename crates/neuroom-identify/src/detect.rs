@@ -6,10 +6,6 @@
 //! [`NetworkDetector::name_regions`] combines it with another detector's unnamed regions instead: each
 //! region keeps its pixels and is named by the models the network sees confidently inside it (one
 //! detection per such model), or stays unnamed where the network sees none.
-//!
-//! [`name_regions`] combines it with another detector's unnamed regions instead: each region keeps its
-//! pixels and is named by the models the network sees confidently inside it (one detection per such
-//! model), or stays unnamed when the network sees none there.
 
 use neuroom_locate::evidence::{Detection, Detector, View, components};
 use neuroom_locate::plane::downsample_rgb;

@@ -129,7 +129,8 @@ pub fn room_gains(view: &View) -> [f32; 3] {
     })
 }
 
-/// The empty room's colour as the query's light would show it: `gains` applied in linear light.
+/// An sRGB colour under per-channel gains of a light, applied in linear light (the empty room as the
+/// query's light shows it; composed training panoramas).
 pub fn relit(color: [f32; 3], gains: [f32; 3]) -> [f32; 3] {
     std::array::from_fn(|c| linear_to_srgb((srgb_to_linear(color[c]) * gains[c]).min(1.0)))
 }
