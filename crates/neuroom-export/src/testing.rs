@@ -63,6 +63,7 @@ fn entry(name: &str, kind: ModelKind, ids: &[u16], field: &NeusField) -> ModelEn
             min: c.bounds_min,
             max: c.bounds_max,
         },
+        object_box: None,
         light_codes: LightCodes {
             names: LIGHT_NAMES.iter().map(|s| s.to_string()).collect(),
             capture: 1,

@@ -173,8 +173,13 @@ pub struct ModelEntry {
     pub ids: Vec<u16>,
     /// Object names drawn by this model.
     pub objects: Vec<String>,
-    /// The field's box in the model frame.
+    /// The field's box in the model frame (the object's box plus a training margin).
     pub bounds: Aabb,
+    /// An object model's own box (room.json `size`, centred at the origin), without the training margin:
+    /// surfaces the field holds outside it are floaters of training, not the object. Absent for the
+    /// background and in manifests written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub object_box: Option<Aabb>,
     /// Light codes (capture lightings, then augmentation maps).
     pub light_codes: LightCodes,
     /// Number of appearance codes.
@@ -196,6 +201,14 @@ pub struct Manifest {
     pub models: Vec<ModelEntry>,
     /// Whether every model of the room is finished.
     pub complete: bool,
+}
+
+impl ModelEntry {
+    /// Half extents of the box the model's object occupies: its own box when recorded, else the field's.
+    pub fn half_extents(&self) -> [f32; 3] {
+        let b = self.object_box.as_ref().unwrap_or(&self.bounds);
+        std::array::from_fn(|a| b.max[a].abs().max(b.min[a].abs()))
+    }
 }
 
 impl Manifest {
@@ -358,6 +371,10 @@ pub fn train_model(
         },
         objects: spec.objects.clone(),
         bounds: field_bounds,
+        object_box: match spec.kind {
+            ModelKind::Object => spec.bounds,
+            ModelKind::Background => None,
+        },
         light_codes: lights,
         appearance_codes: fc.appearance_codes,
         stats: ModelStats {

@@ -206,7 +206,14 @@ fn a_room_trains_into_a_model_folder_that_loads_and_resumes() {
     assert_eq!(entry.light_codes.names.len(), 1 + config.env_maps.len());
     assert_eq!(field.config().light_codes, entry.light_codes.names.len());
     assert!(entry.stats.eval.is_some() && entry.stats.steps == 30);
+    // The object's own box (room.json `size`) is recorded beside the field's padded one.
+    let size = read_room(&room).unwrap().objects[0].size.as_vec3();
+    for a in 0..3 {
+        assert!((entry.half_extents()[a] - 0.5 * size[a]).abs() < 1e-6);
+        assert!(entry.bounds.max[a] > entry.half_extents()[a]);
+    }
     let (background, _) = models.background().unwrap();
+    assert!(background.object_box.is_none());
     assert_eq!(
         background.stats.steps, 30,
         "the background resumes at step 12 and stops at 30"

@@ -221,9 +221,7 @@ fn load_named_model(
         .find(|m| m.name == name && m.kind == ModelKind::Object)
         .with_context(|| format!("{} has no object model `{name}`", dir.display()))?;
     let (field, _, _) = checkpoint::load(&dir.join(&entry.path))?;
-    let half = Vec3::from(entry.bounds.max)
-        .abs()
-        .max(Vec3::from(entry.bounds.min).abs());
+    let half = Vec3::from(entry.half_extents());
     scene.models.push(Model::neus(field));
     placed.names.push(format!("{}/{name}", manifest.room));
     placed.light_names.push(entry.light_codes.names.clone());

@@ -43,8 +43,7 @@ pub fn build_scene(
                 .with_context(|| {
                     format!("no trained model draws object {} (`{}`)", o.id, o.name)
                 })?;
-            let b = &entries[index].bounds;
-            let half = Vec3::from(b.max).abs().max(Vec3::from(b.min).abs());
+            let half = Vec3::from(entries[index].half_extents());
             Ok(SceneObject::new(index, o.id, &o.object_to_world, half))
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
