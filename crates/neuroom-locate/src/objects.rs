@@ -91,6 +91,13 @@ pub struct SearchConfig {
     pub contact_tolerance: f64,
     /// Largest fraction of the smaller box two placed objects may share.
     pub max_overlap: f64,
+    /// Where the empty room just around a hypothesis (a ring outside its silhouette) receives this much
+    /// more light than the room's render shows (the geometric mean of a per-channel gain), a glow is
+    /// taken to fall there: the baseline the hypothesis must beat is the room under that gain, where it
+    /// explains the pixels better. A lamp's glow on a wall or floor is the room under a local gain, not
+    /// an object; without this, a picture or a box fitted to the glow explains it better than the room.
+    /// `None`: never.
+    pub glow_gain: Option<f64>,
 }
 
 impl Default for SearchConfig {
@@ -114,6 +121,7 @@ impl Default for SearchConfig {
             rim_coverage: 0.5,
             contact_tolerance: 0.1,
             max_overlap: 0.1,
+            glow_gain: Some(1.2),
         }
     }
 }
@@ -133,6 +141,9 @@ pub struct Found {
     pub explained: usize,
 }
 
+/// How far (metres) an object standing on another may be from resting on its top face.
+const SUPPORT_TOLERANCE: f64 = 0.05;
+
 #[derive(Clone, Debug)]
 struct Hypothesis {
     model: usize,
@@ -145,6 +156,8 @@ struct Hypothesis {
 struct Placed {
     error: Vec<f32>,
     depth: Vec<f32>,
+    /// Whether the pixel still shows the empty room (no placed object in front).
+    room_front: Vec<bool>,
     boxes: Vec<OrientedBox>,
 }
 
@@ -154,6 +167,7 @@ impl Placed {
         Self {
             error: target.room_error.clone(),
             depth: target.view.empty_depth.clone(),
+            room_front: vec![true; target.room_error.len()],
             boxes: Vec::new(),
         }
     }
@@ -168,6 +182,18 @@ impl Placed {
             let other = OrientedBox::new(b.pose, shrink * b.size);
             let smaller = candidate.volume().min(other.volume()).max(1e-9);
             candidate.intersection_volume(&other) / smaller > config.max_overlap
+        })
+    }
+
+    /// Whether `model` at `pose` stands on the top face of a placed object: its box centre above that
+    /// object's top, its bottom within a few centimetres of it.
+    fn supports(&self, model: &ObjectModel, pose: &Pose) -> bool {
+        self.boxes.iter().any(|b| {
+            let local = b.pose.inverse().transform_point(pose.translation);
+            let half = 0.5 * b.size;
+            local.x.abs() <= half.x
+                && local.y.abs() <= half.y
+                && (local.z - half.z - model.half.z as f64).abs() < SUPPORT_TOLERANCE
         })
     }
 
@@ -187,6 +213,7 @@ impl Placed {
             let p = p as usize;
             self.error[p] = object_error(target, p, c, &gain, 1.0) as f32;
             self.depth[p] = d;
+            self.room_front[p] = false;
         }
         self.boxes
             .push(OrientedBox::new(*pose, 2.0 * model.half.as_dvec3()));
@@ -560,15 +587,87 @@ fn score<F>(
         }
     }
     let gain = limited_gain(std::array::from_fn(|k| num[k] / den[k].max(1e-9)), config);
+    let room_gain = config.glow_gain.and_then(|least| {
+        let g = local_room_gain(target, placed, sil, config);
+        (g[0] * g[1] * g[2] >= least.powi(3)).then_some(g)
+    });
     let (mut total, mut wins) = (0.0f64, 0usize);
     for &(p, c, a) in &visible {
-        let d = placed.error[p] as f64 - object_error(target, p, c, &gain, a);
+        let baseline = match &room_gain {
+            Some(g) if placed.room_front[p] && target.view.empty_depth[p] > 0.0 => {
+                (placed.error[p] as f64).min(room_error_under(target, p, g))
+            }
+            _ => placed.error[p] as f64,
+        };
+        let d = baseline - object_error(target, p, c, &gain, a);
         total += d;
         if d > 0.0 {
             wins += 1;
         }
     }
     ((total, wins, wins as f64 / visible.len() as f64), gain)
+}
+
+/// How far (pixels of the working view) outside a silhouette's rim the room's local gain is measured.
+const RING_RADIUS: i64 = 4;
+
+/// The per-channel gain (within the search's limits) that best maps the empty room's colours onto the
+/// panorama just outside the silhouette (pixels [`RING_RADIUS`] beyond its rim where the room is in
+/// front): the light the room receives around the object. Measured outside, so an object's own
+/// colours cannot be absorbed into it; `[1; 3]` where no such pixel exists.
+fn local_room_gain<F>(
+    target: &Target<F>,
+    placed: &Placed,
+    sil: &Silhouette,
+    config: &SearchConfig,
+) -> [f64; 3] {
+    let (w, h) = (target.view.width() as i64, target.view.height() as i64);
+    let mut inside = sil.pixels.clone();
+    inside.sort_unstable();
+    let (mut num, mut den) = ([0.0f64; 3], [0.0f64; 3]);
+    for (&p, _) in sil.pixels.iter().zip(&sil.rim).filter(|(_, rim)| **rim) {
+        let (u, v) = (p as i64 % w, p as i64 / w);
+        for (du, dv) in [
+            (1, 0),
+            (-1, 0),
+            (0, 1),
+            (0, -1),
+            (1, 1),
+            (1, -1),
+            (-1, 1),
+            (-1, -1),
+        ] {
+            let (uu, vv) = ((u + du * RING_RADIUS).rem_euclid(w), v + dv * RING_RADIUS);
+            if !(0..h).contains(&vv) {
+                continue;
+            }
+            let q_index = (vv * w + uu) as usize;
+            if inside.binary_search(&(q_index as u32)).is_ok()
+                || !placed.room_front[q_index]
+                || target.view.empty_depth[q_index] <= 0.0
+            {
+                continue;
+            }
+            let (q, r) = (target.view.query.data[q_index], target.room_color[q_index]);
+            for k in 0..3 {
+                num[k] += (r[k] * q[k]) as f64;
+                den[k] += (r[k] * r[k]) as f64;
+            }
+        }
+    }
+    if den.iter().any(|d| *d <= 1e-9) {
+        return [1.0; 3];
+    }
+    limited_gain(std::array::from_fn(|k| num[k] / den[k]), config)
+}
+
+/// The colour error at pixel `p` of the empty room under `gain`.
+fn room_error_under<F>(target: &Target<F>, p: usize, gain: &[f64; 3]) -> f64 {
+    let (q, r) = (target.view.query.data[p], target.room_color[p]);
+    (0..3)
+        .map(|k| (q[k] as f64 - gain[k] * r[k] as f64).abs())
+        .sum::<f64>()
+        / 3.0
 }
 
 /// `gain` within the search's limits: its overall level (geometric mean) within
@@ -732,7 +831,19 @@ fn revisit<F: Field>(
                 ),
             })
             .collect();
-        let own: Vec<Hypothesis> = pool.iter().filter(|h| h.model == m).cloned().collect();
+        let mut own: Vec<Hypothesis> = pool.iter().filter(|h| h.model == m).cloned().collect();
+        if let Placement::On(supporter) = model.placement {
+            for (j, f) in found.iter().enumerate() {
+                if j != k && f.model == supporter {
+                    let at = Pose::from_rows_unchecked(&f.object_to_world);
+                    own.extend(
+                        support_hypotheses(target, models, supporter, &at, config)
+                            .into_iter()
+                            .filter(|h| h.model == m),
+                    );
+                }
+            }
+        }
         starts.extend(
             contenders(target, &placed, models, &own, config)
                 .into_iter()
@@ -875,6 +986,8 @@ fn refine<F: Field>(
     let mut pose = *start;
     let mut best = eval(&pose);
     let vertical = model.placement == Placement::Wall;
+    // An object that stands on another slides on its supporter's top, never off it into the air.
+    let supported = matches!(model.placement, Placement::On(_)) && placed.supports(model, start);
     for (step, turn) in [
         (0.1, 15f64.to_radians()),
         (0.05, 8f64.to_radians()),
@@ -914,6 +1027,9 @@ fn refine<F: Field>(
                 }
             }
             for candidate in moves {
+                if supported && !placed.supports(model, &candidate) {
+                    continue;
+                }
                 let s = eval(&candidate);
                 if s.0 > best.0 {
                     best = s;
@@ -955,6 +1071,7 @@ mod tests {
         let placed = Placed {
             error: Vec::new(),
             depth: Vec::new(),
+            room_front: Vec::new(),
             boxes: vec![OrientedBox::new(
                 Pose::from_yaw_translation(0.3, DVec3::new(1.0, 1.0, 0.25)),
                 2.0 * table.half.as_dvec3(),
@@ -972,5 +1089,17 @@ mod tests {
             &Pose::from_yaw_translation(0.0, DVec3::new(1.3, 1.0, 0.25)),
             &config
         ));
+        // Standing on the table's top, anywhere on it; not beside it at the same height, not sunk into it.
+        assert!(placed.supports(&lamp, &on_top));
+        assert!(placed.supports(
+            &lamp,
+            &Pose::from_yaw_translation(2.0, DVec3::new(0.75, 1.2, 0.65))
+        ));
+        assert!(!placed.supports(
+            &lamp,
+            &Pose::from_yaw_translation(1.0, DVec3::new(1.5, 1.0, 0.65))
+        ));
+        assert!(!placed.supports(&lamp, &beside));
+        assert!(!placed.supports(&lamp, &inside));
     }
 }
