@@ -118,6 +118,9 @@ pub struct FitConfig {
     pub observation_tolerance_deg: f32,
     /// Margin of the violation loss (metres; the paper: 0.025).
     pub epsilon: f32,
+    /// Gap (metres) a back joined to a wall may keep from it before the magnetic loss pulls (0: the
+    /// paper's loss, which pulls it onto the wall).
+    pub wall_gap: f32,
     /// Iterations between regenerations of relations and of the object mask.
     pub relation_interval: usize,
     /// Rules of relation generation.
@@ -170,6 +173,7 @@ impl Default for FitConfig {
             yaw_only_upright: true,
             observation_tolerance_deg: 10.0,
             epsilon: 0.025,
+            wall_gap: 0.04,
             relation_interval: 50,
             rules: RelationRules::default(),
             surface_points: 256,

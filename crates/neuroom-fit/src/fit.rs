@@ -572,6 +572,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
             &self.surfaces,
             &self.relations,
             w.magnetic,
+            self.config.wall_gap,
             &mut self.probe,
             &mut self.d_sdf,
             &mut self.pose_grads,

@@ -4,16 +4,21 @@
 //! onto it when the two are apart and pushed out when they penetrate: `L = Σ_relations (min_k sdf(x_k))²`.
 //! Against the room, only points whose nearest room surface is the relation's (the floor for a bottom,
 //! a wall for a back) count, since the room's SDF reads whichever surface is nearest.
+//!
+//! Furniture "against a wall" stands a little off it (baseboards, skirting, a picture's hanger), so a back
+//! joined to the room's wall is pulled only from beyond a tolerance `wall_gap`: within it the photometric
+//! loss places the object, and penetration is still pushed out.
 
 use crate::pose_grad::PoseGrad;
 use crate::probe::{Probe, Target};
 use crate::relations::{Relation, RoomBox};
-use crate::surface::SurfacePoints;
+use crate::surface::{Face, SurfacePoints};
 use glam::Vec3;
 use neuroom_field::Field;
 use neuroom_render::Scene;
 
-/// The loss over `relations` in `room`; adds `weight · ∂L/∂pose` into `grads`.
+/// The loss over `relations` in `room` (backs on the room's walls free within `wall_gap` metres of
+/// them); adds `weight · ∂L/∂pose` into `grads`.
 #[allow(clippy::too_many_arguments)]
 pub fn magnetic_loss<F: Field>(
     scene: &Scene<F>,
@@ -21,6 +26,7 @@ pub fn magnetic_loss<F: Field>(
     surfaces: &[SurfacePoints],
     relations: &[Relation],
     weight: f32,
+    wall_gap: f32,
     probe: &mut Probe,
     d_sdf: &mut Vec<f32>,
     grads: &mut [PoseGrad],
@@ -40,6 +46,14 @@ pub fn magnetic_loss<F: Field>(
         else {
             continue;
         };
+        let gap = if rel.face == Face::Back && rel.target == Target::Room && gap > 0.0 {
+            (gap - wall_gap).max(0.0)
+        } else {
+            gap
+        };
+        if gap == 0.0 {
+            continue;
+        }
         loss += gap * gap;
         d_sdf.clear();
         d_sdf.resize(probe.sdf.len(), 0.0);

@@ -244,6 +244,7 @@ fn magnetic_gradient_matches_finite_differences() {
             &surf,
             &relations,
             2.0,
+            0.0,
             &mut Probe::default(),
             &mut Vec::new(),
             g,
@@ -253,6 +254,41 @@ fn magnetic_gradient_matches_finite_differences() {
     assert!(run(&s, &mut grads) > 1e-4);
     let worst = check_poses(&s, &grads, |sc| run(sc, &mut [PoseGrad::ZERO; 2]));
     assert!(worst < 3e-2, "worst relative error {worst}");
+}
+
+#[test]
+fn a_back_within_the_wall_gap_is_left_where_it_stands() {
+    let back_on_wall = Relation {
+        object: 0,
+        face: Face::Back,
+        target: Target::Room,
+    };
+    // The tilted box of `scene`, upright and turned with its back (−x) to the wall at x = −3.
+    let loss = |offset: f64, wall_gap: f32| {
+        let mut s = scene();
+        s.objects.truncate(1);
+        s.objects[0].set_pose(&Pose::new(
+            DMat3::IDENTITY,
+            DVec3::new(-3.0 + 0.4 + offset, 0.0, 0.25),
+        ));
+        let surf = surfaces(&s);
+        magnetic_loss(
+            &s,
+            &ROOM,
+            &surf,
+            &[back_on_wall],
+            1.0,
+            wall_gap,
+            &mut Probe::default(),
+            &mut Vec::new(),
+            &mut [PoseGrad::ZERO],
+        )
+    };
+    assert!((loss(0.02, 0.0) - 0.02f32.powi(2)).abs() < 2e-5);
+    assert_eq!(loss(0.02, 0.03), 0.0);
+    assert!((loss(0.05, 0.03) - 0.02f32.powi(2)).abs() < 2e-5);
+    // Penetration is pushed out whatever the gap allowed.
+    assert!((loss(-0.01, 0.03) - 0.01f32.powi(2)).abs() < 2e-5);
 }
 
 #[test]
