@@ -93,6 +93,11 @@ impl Aabb {
     pub fn contains(&self, p: Vec3) -> bool {
         (0..3).all(|a| p[a] >= self.min[a] && p[a] <= self.max[a])
     }
+
+    /// Half extents of the smallest box centred at the origin that holds this one.
+    pub fn centred_half_extents(&self) -> [f32; 3] {
+        std::array::from_fn(|a| self.max[a].abs().max(self.min[a].abs()))
+    }
 }
 
 /// One frame's pixels in the model frame: a held-out view, or a training frame before it becomes rays.

@@ -206,8 +206,10 @@ pub struct Manifest {
 impl ModelEntry {
     /// Half extents of the box the model's object occupies: its own box when recorded, else the field's.
     pub fn half_extents(&self) -> [f32; 3] {
-        let b = self.object_box.as_ref().unwrap_or(&self.bounds);
-        std::array::from_fn(|a| b.max[a].abs().max(b.min[a].abs()))
+        self.object_box
+            .as_ref()
+            .unwrap_or(&self.bounds)
+            .centred_half_extents()
     }
 }
 

@@ -200,9 +200,7 @@ pub fn object_models(room: &Room, loaded: &RoomModels) -> anyhow::Result<Vec<Obj
             let against_wall = placement == Placement::Wall
                 || (placement == Placement::Floor && first.relations.iter().any(|r| r == "wall"));
             // The model's bounds carry a margin; the object's box is room.json's `size` (FORMAT.md).
-            let bounds = Vec3::from(entry.bounds.max)
-                .abs()
-                .max(Vec3::from(entry.bounds.min).abs());
+            let bounds = Vec3::from(entry.bounds.centred_half_extents());
             let half = (0.5 * first.size).as_vec3();
             let spacing = (2.0 * bounds.max_element() / 25.0).clamp(0.02, 0.06);
             // Surfaces the field holds outside the object's box are floaters of training, not the
