@@ -18,6 +18,8 @@ pub struct LossWeights {
     pub violation: f32,
     /// Gravity (1 − cos of an upright object's tilt).
     pub gravity: f32,
+    /// Wall alignment (1 − cos of the angle between a back joined to a wall and that wall).
+    pub alignment: f32,
 }
 
 impl Default for LossWeights {
@@ -28,6 +30,7 @@ impl Default for LossWeights {
             magnetic: 1.0,
             violation: 1.0,
             gravity: 1.0,
+            alignment: 1.0,
         }
     }
 }

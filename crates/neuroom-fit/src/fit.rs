@@ -2,6 +2,7 @@
 //! losses; stage 2 freezes the poses and adapts tone adjusters, light codes and appearance codes to the
 //! panorama's lighting. One [`Fitter`] holds every buffer, so an iteration allocates nothing once grown.
 
+use crate::alignment::alignment_loss;
 use crate::codes::FitField;
 use crate::config::FitConfig;
 use crate::gravity::gravity_loss;
@@ -84,6 +85,9 @@ pub struct IterationLog {
     pub violation: f32,
     /// Gravity loss.
     pub gravity: f32,
+    /// Wall alignment loss.
+    #[serde(default)]
+    pub alignment: f32,
     /// Number of relations held.
     pub relations: usize,
 }
@@ -91,7 +95,12 @@ pub struct IterationLog {
 impl IterationLog {
     /// Sum of the weighted losses.
     pub fn total(&self) -> f32 {
-        self.photometric + self.observation + self.magnetic + self.violation + self.gravity
+        self.photometric
+            + self.observation
+            + self.magnetic
+            + self.violation
+            + self.gravity
+            + self.alignment
     }
 }
 
@@ -556,6 +565,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
             return;
         }
         log.gravity = gravity_loss(objects, &self.upright, w.gravity, &mut self.pose_grads);
+        log.alignment = alignment_loss(objects, &self.relations, w.alignment, &mut self.pose_grads);
         log.violation = violation_loss(
             &self.scene,
             &self.surfaces,
@@ -771,6 +781,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
             magnetic: 0.0,
             violation: 0.0,
             gravity: 0.0,
+            alignment: 0.0,
             relations: self.relations.len(),
         }
     }

@@ -6,8 +6,9 @@
 //!   switches, returning a [`FitResult`] (solution, loss log, timings, before/after previews; its
 //!   [`FitResult::report`] is the serialisable part).
 //! - Losses, each a forward/backward pair with a finite-difference test: [`photometric`] (joint rendering
-//!   vs pixels), [`observation`] (viewing directions), [`magnetic`] (relation contacts), [`violation`]
-//!   (penetration of neighbours and the room), [`gravity`] (upright objects).
+//!   vs pixels), [`observation`] (viewing directions), [`magnetic`] (relation contacts), [`alignment`]
+//!   (backs square to their walls), [`violation`] (penetration of neighbours and the room), [`gravity`]
+//!   (upright objects).
 //! - Geometry they share: [`surface`] (surface points from the SDF zero set), [`probe`] (a target's SDF at
 //!   posed points, backward to both poses), [`pose_grad`] (matrix-form pose gradients → 6D).
 //! - [`relations`]: support and wall relations from rules and room.json hints; [`sampling`]: the
@@ -30,6 +31,7 @@
 //! assert_eq!(result.log.len(), 7);
 //! ```
 
+pub mod alignment;
 pub mod bench;
 pub mod codes;
 pub mod config;

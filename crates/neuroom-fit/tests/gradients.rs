@@ -3,6 +3,7 @@
 use glam::{DMat3, DVec3, Vec3};
 use neuroom_core::Pose;
 use neuroom_field::{AnalyticColor, AnalyticField};
+use neuroom_fit::alignment::alignment_loss;
 use neuroom_fit::gravity::gravity_loss;
 use neuroom_fit::magnetic::magnetic_loss;
 use neuroom_fit::observation::{observation_loss, view_directions};
@@ -166,6 +167,22 @@ fn gravity_gradient_matches_finite_differences() {
     };
     let mut grads = [PoseGrad::ZERO; 2];
     assert!(gravity_loss(&s.objects, &upright, 3.0, &mut grads) > 0.0);
+    assert!(check_poses(&s, &grads, loss) < 1e-2);
+}
+
+#[test]
+fn alignment_gradient_matches_finite_differences() {
+    let s = scene();
+    let relations = [0, 1].map(|object| Relation {
+        object,
+        face: Face::Back,
+        target: Target::Room,
+    });
+    let loss = |sc: &Scene<AnalyticField>| {
+        alignment_loss(&sc.objects, &relations, 3.0, &mut [PoseGrad::ZERO; 2])
+    };
+    let mut grads = [PoseGrad::ZERO; 2];
+    assert!(alignment_loss(&s.objects, &relations, 3.0, &mut grads) > 0.0);
     assert!(check_poses(&s, &grads, loss) < 1e-2);
 }
 

@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use glam::Vec3;
 use neuroom_core::formats::{self, Arrangement, read_arrangement, read_rgb, read_room};
-use neuroom_fit::{FitConfig, FitReport, Hint, IterationLog, ObjectInit, RoomBox, fit};
+use neuroom_core::image::RgbImage;
+use neuroom_field::NeusField;
+use neuroom_fit::{FitConfig, FitReport, FitResult, Hint, IterationLog, ObjectInit, RoomBox, fit};
 
 use crate::scene::{build_scene, load_models};
 
@@ -48,6 +50,32 @@ pub fn fit_panorama(
         Some(r) => room_hints(r)?,
         None => Vec::new(),
     };
+    let result = fit_arrangement(models, &image, &start, &hints, config, progress)?;
+    let report = result.report();
+    let outputs = output_paths(out);
+    let name = panorama
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    formats::write_arrangement(out, &solved_arrangement(&start, &report, &name))?;
+    formats::atomic_write(&outputs.report, &serde_json::to_vec_pretty(&report)?)?;
+    if let (Some(before), Some(after)) = (&result.before, &result.after) {
+        formats::write_rgb(&outputs.before, before)?;
+        formats::write_rgb(&outputs.after, after)?;
+    }
+    Ok((outputs, report))
+}
+
+/// Fits the models in `models` to `image` from the arrangement `start` (camera and initial poses), with
+/// relation `hints` per object name; the in-memory core of [`fit_panorama`].
+pub fn fit_arrangement(
+    models: &Path,
+    image: &RgbImage,
+    start: &Arrangement,
+    hints: &[(String, Vec<Hint>)],
+    config: &FitConfig,
+    progress: &mut dyn FnMut(&IterationLog),
+) -> anyhow::Result<FitResult<NeusField>> {
     let loaded = load_models(models)?;
     let room_box = loaded
         .manifest
@@ -57,30 +85,21 @@ pub fn fit_panorama(
             max: Vec3::from(b.max),
         })
         .context("the model folder's manifest has no room box")?;
-    let inits = object_inits(&start, &hints);
-    let scene = build_scene(loaded, &start)?;
-    let result = fit(
+    let inits = object_inits(start, hints);
+    let scene = build_scene(loaded, start)?;
+    Ok(fit(
         scene,
         &room_box,
-        &image,
+        image,
         &start.camera_to_world,
         &inits,
         config,
         progress,
-    )?;
-    let report = result.report();
-    let outputs = output_paths(out);
-    formats::write_arrangement(out, &solved_arrangement(&start, &report, panorama))?;
-    formats::atomic_write(&outputs.report, &serde_json::to_vec_pretty(&report)?)?;
-    if let (Some(before), Some(after)) = (&result.before, &result.after) {
-        formats::write_rgb(&outputs.before, before)?;
-        formats::write_rgb(&outputs.after, after)?;
-    }
-    Ok((outputs, report))
+    )?)
 }
 
 /// Relation hints per object name from room.json.
-fn room_hints(room: &Path) -> anyhow::Result<Vec<(String, Vec<Hint>)>> {
+pub fn room_hints(room: &Path) -> anyhow::Result<Vec<(String, Vec<Hint>)>> {
     let room = read_room(room)?;
     Ok(room
         .objects
@@ -112,13 +131,11 @@ fn object_inits(start: &Arrangement, hints: &[(String, Vec<Hint>)]) -> Vec<Objec
         .collect()
 }
 
-/// The initial arrangement with the solved poses, tone adjusters and light codes.
-fn solved_arrangement(start: &Arrangement, report: &FitReport, panorama: &Path) -> Arrangement {
+/// The initial arrangement with the solved poses, tone adjusters and light codes; `image` names the
+/// panorama.
+pub fn solved_arrangement(start: &Arrangement, report: &FitReport, image: &str) -> Arrangement {
     let mut solved = start.clone();
-    solved.image = panorama
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    solved.image = image.to_string();
     for o in &mut solved.objects {
         if let Some(r) = report.objects.iter().find(|r| r.id == o.id) {
             o.object_to_world = neuroom_core::Pose::from_rows_unchecked(&r.object_to_world);

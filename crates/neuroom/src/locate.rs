@@ -480,9 +480,13 @@ pub struct PanoramaScore {
     pub camera_position_error_cm: f64,
     /// Geodesic angle between the found and true camera rotations (degrees).
     pub camera_rotation_error_deg: f64,
-    /// Identification and initial-pose scores (FORMAT.md metrics).
+    /// Identification and pose scores (FORMAT.md metrics) of the final arrangement: after the fit when
+    /// it ran, else the initial poses.
     pub objects: ArrangementScore,
-    /// Seconds for the whole panorama (camera + objects).
+    /// The initial poses' scores, when the fit ran after them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial: Option<ArrangementScore>,
+    /// Seconds for the whole panorama (camera + objects, and the fit when it ran).
     pub seconds: f64,
     /// Details.
     pub located: Located,
@@ -513,17 +517,23 @@ pub struct LocateMean {
     pub ape_cm: f64,
     /// Mean seconds per panorama.
     pub seconds: f64,
+    /// Mean IoU, ARE and APE of the initial poses, when the fit ran after them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial: Option<[f64; 3]>,
 }
 
 /// `neuroom bench locate`: locates every test panorama of `room` (those with ground truth) and scores
-/// camera, identification and initial poses. `each` sees every panorama's score as it is measured.
+/// camera, identification and initial poses, and with `fit` the poses the holistic fit solves from
+/// them. `each` sees every panorama's score as it is measured.
 pub fn bench_locate(
     room: &Path,
     models: &Path,
     config: &LocateConfig,
+    fit: Option<&FitConfig>,
     each: &mut dyn FnMut(&PanoramaScore),
 ) -> anyhow::Result<(Vec<PanoramaScore>, LocateMean)> {
     let ctx = LocateContext::load(room, models, config)?;
+    let hints = crate::fit::room_hints(room)?;
     let mut scores = Vec::new();
     for (png, truth) in test_panoramas(room)? {
         let image = read_rgb(&png)?.image;
@@ -532,7 +542,23 @@ pub fn bench_locate(
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         let start = Instant::now();
-        let (arrangement, located) = locate_image(&ctx, &image, &name, config)?;
+        let (initial, located) = locate_image(&ctx, &image, &name, config)?;
+        let (arrangement, initial) = match fit {
+            Some(fit) if !initial.objects.is_empty() => {
+                let result = crate::fit::fit_arrangement(
+                    models,
+                    &image,
+                    &initial,
+                    &hints,
+                    fit,
+                    &mut |_| {},
+                )?;
+                let solved = crate::fit::solved_arrangement(&initial, &result.report(), &name);
+                let before = crate::score::score_in_room(&ctx.room, &truth, &initial);
+                (solved, Some(before))
+            }
+            _ => (initial, None),
+        };
         let seconds = start.elapsed().as_secs_f64();
         let score = PanoramaScore {
             panorama: name,
@@ -546,6 +572,7 @@ pub fn bench_locate(
                 arrangement.camera_to_world.rotation,
             ),
             objects: crate::score::score_in_room(&ctx.room, &truth, &arrangement),
+            initial,
             seconds,
             located,
         };
@@ -572,6 +599,16 @@ fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {
         are_deg: mean(&|s| s.objects.mean_rotation_error_deg.unwrap_or(0.0)),
         ape_cm: mean(&|s| s.objects.mean_position_error_cm.unwrap_or(0.0)),
         seconds: mean(&|s| s.seconds),
+        initial: scores.iter().all(|s| s.initial.is_some()).then(|| {
+            let of = |f: &dyn Fn(&ArrangementScore) -> Option<f64>| {
+                mean(&|s| s.initial.as_ref().and_then(f).unwrap_or(0.0))
+            };
+            [
+                of(&|a| a.mean_iou_percent),
+                of(&|a| a.mean_rotation_error_deg),
+                of(&|a| a.mean_position_error_cm),
+            ]
+        }),
     }
 }
 

@@ -42,9 +42,10 @@ enum Which {
     /// Example: `neuroom bench fit rooms/bedroom models/bedroom --ablations --light --sampling --timing --json`
     Fit(FitArgs),
     /// Locate every test panorama of a room (`panoramas/*.png` with ground truth beside them) and score
-    /// the camera, the identification and the initial poses against the ground truth.
+    /// the camera, the identification and the initial poses against the ground truth (with `--fit`, also
+    /// the poses the holistic fit solves from them).
     ///
-    /// Example: `neuroom bench locate rooms/bedroom models/bedroom --json`
+    /// Example: `neuroom bench locate rooms/bedroom models/bedroom --fit --json`
     Locate(LocateArgs),
 }
 
@@ -63,6 +64,9 @@ struct LocateArgs {
     /// regions named by the network) or `auto` (the network when present).
     #[arg(long)]
     detector: Option<neuroom::locate::DetectorChoice>,
+    /// Also run the holistic fit from the initial poses (as `neuroom locate` does) and score its poses.
+    #[arg(long)]
+    fit: bool,
     /// Print one JSON object per panorama and one for the mean, after the text.
     #[arg(long)]
     json: bool,
@@ -275,7 +279,21 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
         detection: a.detector.unwrap_or(defaults.detection),
         ..defaults
     };
-    let (_, mean) = neuroom::locate::bench_locate(&a.room, &a.models, &config, &mut |s| {
+    let fit = neuroom_fit::FitConfig {
+        preview_height: None,
+        ..neuroom_fit::FitConfig::refinement()
+    };
+    let fit = a.fit.then_some(&fit);
+    let (_, mean) = neuroom::locate::bench_locate(&a.room, &a.models, &config, fit, &mut |s| {
+        if let Some(i) = &s.initial {
+            println!(
+                "{}: initial poses IoU {:.1} %, ARE {:.1}°, APE {:.1} cm; after the fit:",
+                s.panorama,
+                i.mean_iou_percent.unwrap_or(0.0),
+                i.mean_rotation_error_deg.unwrap_or(f64::NAN),
+                i.mean_position_error_cm.unwrap_or(f64::NAN),
+            );
+        }
         println!(
             "{}: camera {:.2} cm {:.3}°, P {:.2} R {:.2}, IoU {:.1} %, ARE {:.1}°, APE {:.1} cm, {:.1} s",
             s.panorama,
@@ -307,6 +325,9 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
         mean.ape_cm,
         mean.seconds
     );
+    if let Some([iou, are, ape]) = mean.initial {
+        println!("mean of the initial poses: IoU {iou:.1} %, ARE {are:.1}°, APE {ape:.1} cm");
+    }
     if a.json {
         println!("{}", serde_json::to_string(&mean)?);
     }
