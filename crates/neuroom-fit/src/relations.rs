@@ -2,6 +2,11 @@
 //! hints: object–floor support (the box bottom near the floor), object–wall attachment (only the back,
 //! −x, face may attach, and only when it faces the wall), object-on-object support (the bottom near the
 //! other's top with overlapping footprints). The fit regenerates them every few iterations.
+//!
+//! A hint is read against the current poses, never blindly: a `wall` hint holds the back only to a wall
+//! it faces (a piece found turned the wrong way round is not dragged across the room), and `on:<name>`
+//! names a model, so it holds the object on the nearest instance of the named object's model (identical
+//! instances are told apart by their poses, and a search may have swapped them).
 
 use crate::probe::Target;
 use crate::surface::Face;
@@ -96,6 +101,8 @@ pub struct RelationRules {
     pub distance: f32,
     /// Smallest cosine between the back's outward normal and the wall's outward normal.
     pub facing_cos: f32,
+    /// Largest gap (metres) between a back and the wall it faces most for a `wall` hint to hold it.
+    pub hinted_distance: f32,
 }
 
 impl Default for RelationRules {
@@ -103,6 +110,7 @@ impl Default for RelationRules {
         Self {
             distance: 0.15,
             facing_cos: 0.85,
+            hinted_distance: 0.5,
         }
     }
 }
@@ -128,18 +136,30 @@ fn bounds(o: &SceneObject) -> (Vec3, Vec3) {
     )
 }
 
-/// Whether the back face of `o` is against a wall of `room`: within `rules.distance` of the wall plane
-/// and facing it.
-fn against_wall(o: &SceneObject, room: &RoomBox, rules: &RelationRules) -> bool {
+/// Whether the back face of `o` is against a wall of `room`: within `distance` of the wall plane and
+/// facing it (cosine of the normals at least `facing_cos`).
+fn against_wall(o: &SceneObject, room: &RoomBox, facing_cos: f32, distance: f32) -> bool {
     let back = -o.rotation().x_axis;
     let centre = o.translation + back * o.half_extents.x;
     (0..2).any(|a| {
         [(room.min[a], -1.0f32), (room.max[a], 1.0)]
             .iter()
             .any(|&(plane, sign)| {
-                back[a] * sign >= rules.facing_cos && (plane - centre[a]).abs() < rules.distance
+                back[a] * sign >= facing_cos && (plane - centre[a]).abs() < distance
             })
     })
+}
+
+/// The instance of model `model` among `objects` (other than `i`) whose footprint centre is nearest to
+/// object `i`'s.
+fn nearest_instance(objects: &[SceneObject], i: usize, model: usize) -> Option<usize> {
+    let at = objects[i].translation.truncate();
+    (0..objects.len())
+        .filter(|&j| j != i && objects[j].model == model)
+        .min_by(|&a, &b| {
+            let d = |j: usize| objects[j].translation.truncate().distance_squared(at);
+            d(a).total_cmp(&d(b))
+        })
 }
 
 /// Whether `o`'s bottom rests on `base`'s top: heights within `distance`, footprints overlapping.
@@ -179,12 +199,27 @@ pub fn generate_relations(
         if hint(&Hint::Floor) || bounds(o).0.z - room.min.z < rules.distance {
             push(i, Face::Bottom, Target::Room);
         }
-        if hint(&Hint::Wall) || against_wall(o, room, rules) {
+        let hinted_wall = hint(&Hint::Wall)
+            && against_wall(
+                o,
+                room,
+                std::f32::consts::FRAC_1_SQRT_2,
+                rules.hinted_distance,
+            );
+        if hinted_wall || against_wall(o, room, rules.facing_cos, rules.distance) {
             push(i, Face::Back, Target::Room);
         }
+        let supporters = hints.get(i).into_iter().flatten().filter_map(|h| match h {
+            Hint::On(name) => names.iter().position(|n| n == name),
+            _ => None,
+        });
+        for named in supporters {
+            if let Some(j) = nearest_instance(objects, i, objects[named].model) {
+                push(i, Face::Bottom, Target::Object(j));
+            }
+        }
         for (j, base) in objects.iter().enumerate() {
-            let named = hint(&Hint::On(names.get(j).cloned().unwrap_or_default()));
-            if j != i && (named || stands_on(o, base, rules.distance)) {
+            if j != i && stands_on(o, base, rules.distance) {
                 push(i, Face::Bottom, Target::Object(j));
             }
         }
@@ -210,5 +245,69 @@ mod tests {
         assert!(!room.nearest_is_contact_of(Face::Back, Vec3::new(0.0, 1.0, 0.02)));
         assert_eq!(Hint::parse("on:bed"), Some(Hint::On("bed".into())));
         assert_eq!(Hint::parse("ceiling"), None);
+    }
+
+    const ROOM: RoomBox = RoomBox {
+        min: Vec3::new(0.0, 0.0, 0.0),
+        max: Vec3::new(4.0, 4.0, 2.6),
+    };
+
+    fn placed(model: usize, x: f64, y: f64, z: f64, yaw_deg: f64) -> SceneObject {
+        let pose = neuroom_core::Pose::new(
+            glam::DMat3::from_rotation_z(yaw_deg.to_radians()),
+            glam::DVec3::new(x, y, z),
+        );
+        SceneObject::new(model, 1, &pose, Vec3::splat(0.2))
+    }
+
+    #[test]
+    fn a_wall_hint_holds_a_back_that_faces_its_wall_and_not_one_turned_away() {
+        let hints = vec![vec![Hint::Wall]];
+        let names = vec!["desk".to_string()];
+        let rules = RelationRules::default();
+        let relations = |o: SceneObject| generate_relations(&[o], &ROOM, &hints, &names, &rules);
+        let back_on_wall = |o: SceneObject| {
+            relations(o)
+                .iter()
+                .any(|r| r.face == Face::Back && r.target == Target::Room)
+        };
+        // Back (−x) 30 cm off the x = 0 wall and turned 35°: beyond the rule, within the hint.
+        assert!(back_on_wall(placed(0, 0.5, 2.0, 0.2, 35.0)));
+        assert!(
+            !generate_relations(
+                &[placed(0, 0.5, 2.0, 0.2, 35.0)],
+                &ROOM,
+                &[vec![]],
+                &names,
+                &rules
+            )
+            .iter()
+            .any(|r| r.face == Face::Back)
+        );
+        // The same piece turned round: its back faces the far wall.
+        assert!(!back_on_wall(placed(0, 0.5, 2.0, 0.2, 180.0)));
+    }
+
+    #[test]
+    fn an_on_hint_holds_the_object_on_the_nearest_instance_of_the_named_model() {
+        // Two identical nightstands (model 1); the lamp (model 2) is named on the first but stands by
+        // the second.
+        let objects = [
+            placed(1, 0.5, 0.5, 0.2, 0.0),
+            placed(1, 3.5, 3.5, 0.2, 0.0),
+            placed(2, 3.4, 3.6, 0.9, 0.0),
+        ];
+        let names: Vec<String> = ["nightstand_1", "nightstand_2", "lamp"]
+            .map(String::from)
+            .to_vec();
+        let hints = vec![vec![], vec![], vec![Hint::On("nightstand_1".into())]];
+        let relations =
+            generate_relations(&objects, &ROOM, &hints, &names, &RelationRules::default());
+        let on: Vec<Target> = relations
+            .iter()
+            .filter(|r| r.object == 2 && r.face == Face::Bottom)
+            .map(|r| r.target)
+            .collect();
+        assert_eq!(on, vec![Target::Object(1)]);
     }
 }
