@@ -543,7 +543,8 @@ pub fn bench_locate(
             .unwrap_or_default();
         let start = Instant::now();
         let (initial, located) = locate_image(&ctx, &image, &name, config)?;
-        let (arrangement, initial) = match fit {
+        let initial_score = fit.map(|_| crate::score::score_in_room(&ctx.room, &truth, &initial));
+        let arrangement = match fit {
             Some(fit) if !initial.objects.is_empty() => {
                 let result = crate::fit::fit_arrangement(
                     models,
@@ -553,11 +554,9 @@ pub fn bench_locate(
                     fit,
                     &mut |_| {},
                 )?;
-                let solved = crate::fit::solved_arrangement(&initial, &result.report(), &name);
-                let before = crate::score::score_in_room(&ctx.room, &truth, &initial);
-                (solved, Some(before))
+                crate::fit::solved_arrangement(&initial, &result.report(), &name)
             }
-            _ => (initial, None),
+            _ => initial,
         };
         let seconds = start.elapsed().as_secs_f64();
         let score = PanoramaScore {
@@ -572,7 +571,7 @@ pub fn bench_locate(
                 arrangement.camera_to_world.rotation,
             ),
             objects: crate::score::score_in_room(&ctx.room, &truth, &arrangement),
-            initial,
+            initial: initial_score,
             seconds,
             located,
         };
