@@ -15,6 +15,7 @@ pub mod pose;
 pub mod ray;
 pub mod rotation6d;
 pub mod sh;
+pub mod winding;
 
 pub use error::{FormatError, FormatResult};
 pub use image::Image;

@@ -4,7 +4,7 @@
 
 use crate::augment::Augmentation;
 use crate::config::{BudgetClock, TrainConfig};
-use crate::eval::{LightCodeCheck, evaluate};
+use crate::eval::{LightCodeCheck, evaluate, noise_psnr_ceiling};
 use crate::mesh_extract::Chamfer;
 use crate::progress::Progress;
 use crate::room::{
@@ -43,6 +43,9 @@ pub struct ModelBenchReport {
     pub eval_seconds: f64,
     /// Held-out PSNR (dB) on the model's pixels.
     pub psnr_db: f64,
+    /// The held-out PSNR an exact model would reach, estimated from the held-out images' own noise
+    /// ([`crate::eval::noise_psnr_ceiling`]).
+    pub noise_ceiling_psnr_db: Option<f64>,
     /// Median held-out distance error (metres).
     pub median_depth_error_m: f32,
     /// Fraction of the model's held-out pixels the render hit.
@@ -126,6 +129,7 @@ fn bench_model(
             load_seconds,
             eval_seconds: t0.elapsed().as_secs_f64(),
             psnr_db: eval.psnr_db,
+            noise_ceiling_psnr_db: noise_psnr_ceiling(&data.held_out),
             median_depth_error_m: eval.median_depth_error_m,
             coverage: eval.coverage,
             chamfer_m,

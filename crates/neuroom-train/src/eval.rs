@@ -256,6 +256,37 @@ pub fn distance_errors(view: &View, rendered: &Rendered) -> Vec<f32> {
         .collect()
 }
 
+/// An estimate of the held-out PSNR an exact model would reach on `views`: their own pixel noise (a path
+/// tracer's Monte-Carlo noise, a camera's sensor noise) is the error left when the model is perfect, so it
+/// says how far a figure is from what the images allow. Each surface pixel whose four neighbours are
+/// surface pixels too is compared with their mean; the noise's standard deviation is the median absolute
+/// difference × 1.4826 (exact for Gaussian noise) / √(5/4) (the neighbours' mean carries a quarter of the
+/// variance). Texture raises the estimate of the noise and heavy-tailed noise lowers it: a guide, not a
+/// bound. `None` without such pixels.
+pub fn noise_psnr_ceiling(views: &[View]) -> Option<f64> {
+    let mut differences = Vec::new();
+    for view in views {
+        let w = view.camera.width as usize;
+        let h = view.rgb.len() / w.max(1);
+        let surface = |i: usize| view.class[i] == PixelClass::Surface;
+        for i in (w + 1..w * h.saturating_sub(1)).filter(|i| i % w != 0 && i % w != w - 1) {
+            let around = [i - 1, i + 1, i - w, i + w];
+            if !surface(i) || !around.iter().all(|&j| surface(j)) {
+                continue;
+            }
+            for c in 0..3 {
+                let mean = around.iter().map(|&j| view.rgb[j][c]).sum::<f32>() / 4.0;
+                differences.push((view.rgb[i][c] - mean).abs());
+            }
+        }
+    }
+    if differences.is_empty() {
+        return None;
+    }
+    let sigma = median(differences) as f64 * 1.4826 / 1.25f64.sqrt();
+    Some(psnr_of(sigma * sigma))
+}
+
 /// Median of a list (0 when empty).
 pub fn median(mut v: Vec<f32>) -> f32 {
     if v.is_empty() {
@@ -400,5 +431,66 @@ pub fn evaluate(
         median_depth_error_m: median(errors),
         coverage: hit as f32 / pixels.max(1) as f32,
         light_codes,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Pcg32;
+    use neuroom_core::Pose;
+    use neuroom_core::camera::Pinhole;
+
+    /// A 64 × 48 view of one grey surface with Gaussian noise of standard deviation `sigma` per channel
+    /// (Box–Muller), a black border of non-surface pixels around it.
+    fn noisy_view(sigma: f32) -> View {
+        let (w, h) = (64usize, 48usize);
+        let mut rng = Pcg32::new(7, 1);
+        let mut gaussian = || {
+            let (u, v) = (rng.next_f32().max(1e-7), rng.next_f32());
+            (-2.0 * u.ln()).sqrt() * (std::f32::consts::TAU * v).cos()
+        };
+        let inside = |i: usize| (4..w - 4).contains(&(i % w)) && (4..h - 4).contains(&(i / w));
+        View {
+            index: 0,
+            camera: Pinhole::new(w as u32, h as u32, 50.0, 50.0, 32.0, 24.0),
+            camera_to_model: Pose::IDENTITY,
+            light: 0,
+            rgb: (0..w * h)
+                .map(|i| {
+                    if inside(i) {
+                        std::array::from_fn(|_| 0.5 + sigma * gaussian())
+                    } else {
+                        [0.0; 3]
+                    }
+                })
+                .collect(),
+            distance: vec![1.0; w * h],
+            class: (0..w * h)
+                .map(|i| {
+                    if inside(i) {
+                        PixelClass::Surface
+                    } else {
+                        PixelClass::Empty
+                    }
+                })
+                .collect(),
+            normal: vec![[0.0, 0.0, 1.0]; w * h],
+        }
+    }
+
+    #[test]
+    fn noise_ceiling_is_the_psnr_of_the_images_own_noise() {
+        for sigma in [0.01f32, 0.03] {
+            let got = noise_psnr_ceiling(&[noisy_view(sigma)]).unwrap();
+            let want = psnr_of((sigma * sigma) as f64);
+            assert!(
+                (got - want).abs() < 0.5,
+                "σ {sigma}: {got:.2} dB vs {want:.2} dB"
+            );
+        }
+        let mut none = noisy_view(0.01);
+        none.class.fill(PixelClass::Empty);
+        assert_eq!(noise_psnr_ceiling(&[none]), None);
     }
 }

@@ -152,6 +152,9 @@ pub fn describe_train(r: &neuroom_train::bench::ModelBenchReport) -> String {
     let chamfer = r.chamfer_m.map_or("no GT mesh".to_string(), |c| {
         format!("Chamfer {:.1} mm", c.mean * 1e3)
     });
+    let ceiling = r.noise_ceiling_psnr_db.map_or(String::new(), |c| {
+        format!(" (the images' noise allows {c:.1} dB)")
+    });
     let clock = match r.budget_clock {
         neuroom_train::BudgetClock::Wall => String::new(),
         neuroom_train::BudgetClock::Cpu => {
@@ -159,8 +162,8 @@ pub fn describe_train(r: &neuroom_train::bench::ModelBenchReport) -> String {
         }
     };
     format!(
-        "train {} / {}: {} steps in {:.0} s{clock}, held-out PSNR {:.2} dB, median depth error {:.1} mm, \
-         {chamfer}, light codes [{}]",
+        "train {} / {}: {} steps in {:.0} s{clock}, held-out PSNR {:.2} dB{ceiling}, median depth error \
+         {:.1} mm, {chamfer}, light codes [{}]",
         r.room,
         r.model,
         r.steps,
