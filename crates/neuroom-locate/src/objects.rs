@@ -9,7 +9,9 @@
 //! distance (a later object must explain them better to stand in front, and is hidden behind it), and
 //! its box is taken (later objects may not stand inside it); the search goes on until no hypothesis
 //! explains enough: objects absent from the panorama are not invented. Identical instances (one model,
-//! several ids) are placed one after another at distinct poses.
+//! several ids) are placed one after another at distinct poses. Then each placed object is searched again
+//! in the scene of all the others, and a model left out gets its place back from the objects standing
+//! in it when that explains the whole panorama better.
 
 use glam::{DVec3, Vec3};
 use neuroom_core::obb::OrientedBox;
@@ -345,8 +347,9 @@ pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> 
         };
         pool.extend(prune(&target, models, hyps, config));
     }
-    let found = greedy(&target, models, pool.clone(), config);
-    revisit(&target, models, &pool, found, config)
+    let found = greedy(&target, models, pool.clone(), Vec::new(), config);
+    let found = revisit(&target, models, &pool, found, config);
+    exchange(&target, models, &pool, found, config)
 }
 
 /// The models with their clouds' colours under the panorama's light as the empty room shows it (its
@@ -730,16 +733,24 @@ fn contenders<F: Field>(
     out
 }
 
-/// Takes the best hypothesis over all models while one explains enough, refining and committing each.
+/// Takes the best hypothesis over all models while one explains enough, refining and committing each,
+/// in the scene of the objects `found` already holds.
 fn greedy<F: Field>(
     target: &Target<F>,
     models: &[ObjectModel],
     mut pool: Vec<Hypothesis>,
+    mut found: Vec<Found>,
     config: &SearchConfig,
 ) -> Vec<Found> {
-    let mut placed = Placed::nothing(target);
+    let mut placed = placed_scene(target, models, &found, config);
     let mut used = vec![0usize; models.len()];
-    let mut found: Vec<Found> = Vec::new();
+    for f in &found {
+        used[f.model] += 1;
+        let at = Pose::from_rows_unchecked(&f.object_to_world).translation;
+        pool.retain(|o| {
+            o.model != f.model || o.pose.translation.distance(at) > config.suppression as f64
+        });
+    }
     loop {
         pool.retain(|h| used[h.model] < models[h.model].ids.len());
         let contenders = contenders(target, &placed, models, &pool, config);
@@ -774,7 +785,7 @@ fn greedy<F: Field>(
         };
         let model = &models[m];
         placed.add(target, model, &pose, config);
-        let id = model.ids[used[m]];
+        let id = free_id(model, &found);
         used[m] += 1;
         found.push(Found {
             model: m,
@@ -792,6 +803,104 @@ fn greedy<F: Field>(
     found
 }
 
+/// The scene with every object of `found` placed, in order.
+fn placed_scene<F>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    found: &[Found],
+    config: &SearchConfig,
+) -> Placed {
+    let mut placed = Placed::nothing(target);
+    for f in found {
+        let pose = Pose::from_rows_unchecked(&f.object_to_world);
+        placed.add(target, &models[f.model], &pose, config);
+    }
+    placed
+}
+
+/// The first instance id of `model` that no object of `found` carries.
+fn free_id(model: &ObjectModel, found: &[Found]) -> u16 {
+    model
+        .ids
+        .iter()
+        .copied()
+        .find(|id| found.iter().all(|f| f.id != *id))
+        .unwrap_or(model.ids[0])
+}
+
+/// The colour error of the whole panorama with `found` placed: the sum over pixels of the error of the
+/// nearest surface (an object's, or the empty room's).
+fn scene_error<F>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    found: &[Found],
+    config: &SearchConfig,
+) -> f64 {
+    let placed = placed_scene(target, models, found, config);
+    placed.error.iter().map(|&e| e as f64).sum()
+}
+
+/// A model left out (fewer placed than its instances) may have lost its place to a wrong object placed
+/// first: the greedy search cannot take an object back. Each of its best hypotheses in the empty room is
+/// put in, the placed objects it collides with are taken out and the search goes on from there (they
+/// may find another place); the exchange is kept when the whole panorama's colour error falls, and the
+/// objects are then revisited.
+fn exchange<F: Field>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    pool: &[Hypothesis],
+    mut found: Vec<Found>,
+    config: &SearchConfig,
+) -> Vec<Found> {
+    let mut error = scene_error(target, models, &found, config);
+    let mut changed = false;
+    for (m, model) in models.iter().enumerate() {
+        if found.iter().filter(|f| f.model == m).count() >= model.ids.len() {
+            continue;
+        }
+        let own: Vec<Hypothesis> = pool.iter().filter(|h| h.model == m).cloned().collect();
+        let empty = Placed::nothing(target);
+        let starts: Vec<(Pose, (f64, usize, f64))> =
+            contenders(target, &empty, models, &own, config)
+                .par_iter()
+                .map(|&k| refine(target, &empty, model, &own[k].pose, config))
+                .filter(|(_, s)| accepted(s, config))
+                .collect();
+        for (pose, (s, tp, _)) in starts {
+            let mut newcomer = Placed::nothing(target);
+            newcomer
+                .boxes
+                .push(OrientedBox::new(pose, 2.0 * model.half.as_dvec3()));
+            let (kept, taken_out): (Vec<Found>, Vec<Found>) =
+                found.iter().cloned().partition(|f| {
+                    let at = Pose::from_rows_unchecked(&f.object_to_world);
+                    !newcomer.collides(&models[f.model], &at, config)
+                });
+            if taken_out.is_empty() {
+                continue;
+            }
+            let mut start = kept;
+            start.push(Found {
+                model: m,
+                id: free_id(model, &start),
+                object_to_world: pose.to_rows(),
+                score: s,
+                explained: tp,
+            });
+            let candidate = greedy(target, models, pool.to_vec(), start, config);
+            let candidate_error = scene_error(target, models, &candidate, config);
+            if candidate_error < error {
+                (found, error, changed) = (candidate, candidate_error, true);
+                break;
+            }
+        }
+    }
+    if changed {
+        found = revisit(target, models, pool, found, config);
+    }
+    found
+}
+
 /// Each placed object again, in the scene of all the others: later objects may explain its pixels
 /// better, or show it was put in the wrong place. Its pose is searched again from where it stands
 /// (also turned by a quarter and a half turn, unless it hangs on a wall) and from the model's best
@@ -805,13 +914,9 @@ fn revisit<F: Field>(
 ) -> Vec<Found> {
     let mut k = 0;
     while k < found.len() {
-        let mut placed = Placed::nothing(target);
-        for (j, f) in found.iter().enumerate() {
-            if j != k {
-                let pose = Pose::from_rows_unchecked(&f.object_to_world);
-                placed.add(target, &models[f.model], &pose, config);
-            }
-        }
+        let mut others = found.clone();
+        others.remove(k);
+        let placed = placed_scene(target, models, &others, config);
         let m = found[k].model;
         let model = &models[m];
         let current = Pose::from_rows_unchecked(&found[k].object_to_world);
