@@ -82,6 +82,40 @@ impl TriMesh {
             .collect()
     }
 
+    /// The surface of the axis-aligned box from `lo` to `hi`, each face split into `n` × `n` squares of two
+    /// triangles, counter-clockwise seen from outside: a reference surface for tests and checks.
+    pub fn cuboid(lo: Vec3, hi: Vec3, n: u32) -> TriMesh {
+        let mut mesh = TriMesh::default();
+        for axis in 0..3 {
+            for side in [0.0f32, 1.0] {
+                let base = mesh.positions.len() as u32;
+                for i in 0..=n {
+                    for j in 0..=n {
+                        let mut f = [0.0f32; 3];
+                        f[axis] = side;
+                        f[(axis + 1) % 3] = i as f32 / n as f32;
+                        f[(axis + 2) % 3] = j as f32 / n as f32;
+                        mesh.positions.push(lo + (hi - lo) * Vec3::from(f));
+                    }
+                }
+                for i in 0..n {
+                    for j in 0..n {
+                        let v = |a: u32, b: u32| base + a * (n + 1) + b;
+                        let mut pair = [
+                            [v(i, j), v(i + 1, j), v(i + 1, j + 1)],
+                            [v(i, j), v(i + 1, j + 1), v(i, j + 1)],
+                        ];
+                        if side == 0.0 {
+                            pair.iter_mut().for_each(|t| t.swap(1, 2));
+                        }
+                        mesh.triangles.extend(pair);
+                    }
+                }
+            }
+        }
+        mesh
+    }
+
     /// The corner positions of triangle `t`.
     pub fn corners(&self, t: usize) -> [Vec3; 3] {
         self.triangles[t].map(|i| self.positions[i as usize])

@@ -157,40 +157,6 @@ fn split_at_median(part: &mut [[DVec3; 3]]) {
 mod tests {
     use super::*;
 
-    /// An axis-aligned box from `lo` to `hi`, each face split into `n` × `n` squares of two triangles,
-    /// counter-clockwise seen from outside.
-    fn cuboid(lo: Vec3, hi: Vec3, n: u32) -> TriMesh {
-        let mut mesh = TriMesh::default();
-        for axis in 0..3 {
-            for side in [0.0f32, 1.0] {
-                let base = mesh.positions.len() as u32;
-                for i in 0..=n {
-                    for j in 0..=n {
-                        let mut f = [0.0f32; 3];
-                        f[axis] = side;
-                        f[(axis + 1) % 3] = i as f32 / n as f32;
-                        f[(axis + 2) % 3] = j as f32 / n as f32;
-                        mesh.positions.push(lo + (hi - lo) * Vec3::from(f));
-                    }
-                }
-                for i in 0..n {
-                    for j in 0..n {
-                        let v = |a: u32, b: u32| base + a * (n + 1) + b;
-                        let mut pair = [
-                            [v(i, j), v(i + 1, j), v(i + 1, j + 1)],
-                            [v(i, j), v(i + 1, j + 1), v(i, j + 1)],
-                        ];
-                        if side == 0.0 {
-                            pair.iter_mut().for_each(|t| t.swap(1, 2));
-                        }
-                        mesh.triangles.extend(pair);
-                    }
-                }
-            }
-        }
-        mesh
-    }
-
     fn exact(mesh: &TriMesh, q: Vec3) -> f64 {
         (0..mesh.triangles.len())
             .map(|t| solid_angle(q.as_dvec3(), mesh.corners(t).map(|p| p.as_dvec3())))
@@ -200,11 +166,11 @@ mod tests {
 
     #[test]
     fn closed_parts_count_once_inside_and_add_up_where_they_overlap() {
-        let mut mesh = cuboid(Vec3::ZERO, Vec3::ONE, 1);
+        let mut mesh = TriMesh::cuboid(Vec3::ZERO, Vec3::ONE, 1);
         let tree = WindingTree::new(&mesh);
         assert!((tree.winding_number(Vec3::splat(0.5)) - 1.0).abs() < 1e-5);
         assert!(tree.winding_number(Vec3::new(1.5, 0.5, 0.5)).abs() < 1e-5);
-        mesh.append(&cuboid(
+        mesh.append(&TriMesh::cuboid(
             Vec3::new(0.5, 0.0, 0.0),
             Vec3::new(2.0, 1.0, 1.0),
             1,
@@ -218,8 +184,8 @@ mod tests {
     /// are small against the query distances, near and far, inside and outside.
     #[test]
     fn tree_matches_the_exact_sum() {
-        let mut mesh = cuboid(Vec3::ZERO, Vec3::ONE, 12);
-        mesh.append(&cuboid(Vec3::splat(0.6), Vec3::splat(1.8), 12));
+        let mut mesh = TriMesh::cuboid(Vec3::ZERO, Vec3::ONE, 12);
+        mesh.append(&TriMesh::cuboid(Vec3::splat(0.6), Vec3::splat(1.8), 12));
         let tree = WindingTree::new(&mesh);
         for k in 0..200 {
             let f = |m: u32| ((k * m + 7) % 101) as f32 / 100.0;
@@ -233,8 +199,8 @@ mod tests {
     /// buried, the faces on its boundary are not.
     #[test]
     fn buried_faces_of_overlapping_parts_are_not_outer_surface() {
-        let mut mesh = cuboid(Vec3::ZERO, Vec3::new(2.0, 1.0, 0.5), 2);
-        mesh.append(&cuboid(
+        let mut mesh = TriMesh::cuboid(Vec3::ZERO, Vec3::new(2.0, 1.0, 0.5), 2);
+        mesh.append(&TriMesh::cuboid(
             Vec3::new(0.5, 0.0, 0.5),
             Vec3::new(1.5, 1.0, 1.0),
             2,

@@ -373,37 +373,8 @@ mod tests {
         assert!(all > 0.02, "{all}");
     }
 
-    /// The surface of the unit cube [0, 1]³, each face split into `n` × `n` squares of two triangles,
-    /// counter-clockwise seen from outside.
+    /// The surface of the unit cube [0, 1]³, each face split into `n` × `n` squares of two triangles.
     fn box_mesh(n: u32) -> TriMesh {
-        let mut mesh = TriMesh::default();
-        for axis in 0..3 {
-            for side in [0.0, 1.0] {
-                let base = mesh.positions.len() as u32;
-                for i in 0..=n {
-                    for j in 0..=n {
-                        let mut p = [0.0f32; 3];
-                        p[axis] = side;
-                        p[(axis + 1) % 3] = i as f32 / n as f32;
-                        p[(axis + 2) % 3] = j as f32 / n as f32;
-                        mesh.positions.push(Vec3::from(p));
-                    }
-                }
-                for i in 0..n {
-                    for j in 0..n {
-                        let v = |a: u32, b: u32| base + a * (n + 1) + b;
-                        let mut pair = [
-                            [v(i, j), v(i + 1, j), v(i + 1, j + 1)],
-                            [v(i, j), v(i + 1, j + 1), v(i, j + 1)],
-                        ];
-                        if side == 0.0 {
-                            pair.iter_mut().for_each(|t| t.swap(1, 2));
-                        }
-                        mesh.triangles.extend(pair);
-                    }
-                }
-            }
-        }
-        mesh
+        TriMesh::cuboid(Vec3::ZERO, Vec3::ONE, n)
     }
 }
