@@ -178,13 +178,7 @@ impl Placed {
     /// tolerance so that objects may touch (a lamp on a nightstand), share more than `max_overlap` of
     /// the smaller one's volume.
     fn collides(&self, model: &ObjectModel, pose: &Pose, config: &SearchConfig) -> bool {
-        let shrink = 1.0 - config.contact_tolerance;
-        let candidate = OrientedBox::new(*pose, 2.0 * shrink * model.half.as_dvec3());
-        self.boxes.iter().any(|b| {
-            let other = OrientedBox::new(b.pose, shrink * b.size);
-            let smaller = candidate.volume().min(other.volume()).max(1e-9);
-            candidate.intersection_volume(&other) / smaller > config.max_overlap
-        })
+        stands_inside(&self.boxes, model, pose, config)
     }
 
     /// Whether `model` at `pose` stands on the top face of a placed object: its box centre above that
@@ -220,6 +214,22 @@ impl Placed {
         self.boxes
             .push(OrientedBox::new(*pose, 2.0 * model.half.as_dvec3()));
     }
+}
+
+/// Whether `model` at `pose` would stand inside one of `boxes` ([`Placed::collides`]).
+fn stands_inside(
+    boxes: &[OrientedBox],
+    model: &ObjectModel,
+    pose: &Pose,
+    config: &SearchConfig,
+) -> bool {
+    let shrink = 1.0 - config.contact_tolerance;
+    let candidate = OrientedBox::new(*pose, 2.0 * shrink * model.half.as_dvec3());
+    boxes.iter().any(|b| {
+        let other = OrientedBox::new(b.pose, shrink * b.size);
+        let smaller = candidate.volume().min(other.volume()).max(1e-9);
+        candidate.intersection_volume(&other) / smaller > config.max_overlap
+    })
 }
 
 /// What the search compares against.
@@ -747,9 +757,7 @@ fn greedy<F: Field>(
     for f in &found {
         used[f.model] += 1;
         let at = Pose::from_rows_unchecked(&f.object_to_world).translation;
-        pool.retain(|o| {
-            o.model != f.model || o.pose.translation.distance(at) > config.suppression as f64
-        });
+        suppress_near(&mut pool, f.model, at, config);
     }
     loop {
         pool.retain(|h| used[h.model] < models[h.model].ids.len());
@@ -794,13 +802,16 @@ fn greedy<F: Field>(
             score: s,
             explained: tp,
         });
-        pool.retain(|o| {
-            o.model != m
-                || o.pose.translation.distance(pose.translation) > config.suppression as f64
-        });
+        suppress_near(&mut pool, m, pose.translation, config);
         pool.extend(support_hypotheses(target, models, m, &pose, config));
     }
     found
+}
+
+/// Drops the hypotheses of model `m` within the suppression distance of `at`, where one of its objects
+/// stands.
+fn suppress_near(pool: &mut Vec<Hypothesis>, m: usize, at: DVec3, config: &SearchConfig) {
+    pool.retain(|o| o.model != m || o.pose.translation.distance(at) > config.suppression as f64);
 }
 
 /// The scene with every object of `found` placed, in order.
@@ -854,12 +865,12 @@ fn exchange<F: Field>(
 ) -> Vec<Found> {
     let mut error = scene_error(target, models, &found, config);
     let mut changed = false;
+    let empty = Placed::nothing(target);
     for (m, model) in models.iter().enumerate() {
         if found.iter().filter(|f| f.model == m).count() >= model.ids.len() {
             continue;
         }
         let own: Vec<Hypothesis> = pool.iter().filter(|h| h.model == m).cloned().collect();
-        let empty = Placed::nothing(target);
         let starts: Vec<(Pose, (f64, usize, f64))> =
             contenders(target, &empty, models, &own, config)
                 .par_iter()
@@ -867,14 +878,11 @@ fn exchange<F: Field>(
                 .filter(|(_, s)| accepted(s, config))
                 .collect();
         for (pose, (s, tp, _)) in starts {
-            let mut newcomer = Placed::nothing(target);
-            newcomer
-                .boxes
-                .push(OrientedBox::new(pose, 2.0 * model.half.as_dvec3()));
+            let newcomer = [OrientedBox::new(pose, 2.0 * model.half.as_dvec3())];
             let (kept, taken_out): (Vec<Found>, Vec<Found>) =
                 found.iter().cloned().partition(|f| {
                     let at = Pose::from_rows_unchecked(&f.object_to_world);
-                    !newcomer.collides(&models[f.model], &at, config)
+                    !stands_inside(&newcomer, &models[f.model], &at, config)
                 });
             if taken_out.is_empty() {
                 continue;
