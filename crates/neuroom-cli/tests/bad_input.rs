@@ -1,4 +1,4 @@
-//! Bad input on the command line: `info`, `train`, `render` and `fit` fed a missing, corrupt, wrongly sized
+//! Bad input on the command line: `info`, `train`, `render`, `fit` and `locate` fed a missing, corrupt, wrongly sized
 //! or inconsistent file must exit with code 2 and a message naming that file, never panic. Each case starts
 //! from the tiny valid room of neuroom-core's tests and breaks one file of a copy.
 
@@ -234,6 +234,34 @@ fn fit_names_a_bad_panorama_and_a_bad_initial_arrangement() {
         &out_json,
     ]);
     assert_rejects(&out, &bad_init, "duplicate id");
+    assert!(!out_json.exists());
+}
+
+#[test]
+fn locate_names_a_bad_panorama_and_a_photo_whose_intrinsics_do_not_fit() {
+    let dir = scratch("locate");
+    let out_json = dir.join("arrangement.json");
+    let photo = tiny_room().join("captures/background/images/0.png");
+    let locate = |image: &Path, extra: &[&Path]| {
+        let mut args: Vec<&Path> = vec![Path::new("locate"), &dir, &dir, image];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&[Path::new("-o"), &out_json]);
+        neuroom(&args)
+    };
+    // Without intrinsics an image must be a panorama.
+    assert_rejects(&locate(&photo, &[]), &photo, "--intrinsics");
+    let bad = corpus("intrinsics_missing_fl_y.json");
+    let out = locate(&photo, &[Path::new("--intrinsics"), &bad]);
+    assert_rejects(&out, &bad, "fl_y");
+    // Intrinsics for another size (the photo is 8 × 6).
+    let other = dir.join("camera.json");
+    fs::write(
+        &other,
+        r#"{"w": 640, "h": 480, "fl_x": 500, "fl_y": 500, "cx": 320, "cy": 240}"#,
+    )
+    .unwrap();
+    let out = locate(&photo, &[Path::new("--intrinsics"), &other]);
+    assert_rejects(&out, &photo, "640×480");
     assert!(!out_json.exists());
 }
 

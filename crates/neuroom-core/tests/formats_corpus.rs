@@ -6,7 +6,7 @@
 use neuroom_core::FormatError;
 use neuroom_core::formats::{
     Conversion, read_arrangement, read_capture, read_depth, read_envmap, read_image_size,
-    read_mask, read_rgb, read_rgba, read_room,
+    read_intrinsics_file, read_mask, read_rgb, read_rgba, read_room,
 };
 use neuroom_core::mesh::read_ply;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -25,10 +25,11 @@ enum Reader {
     Mask,
     EnvMap,
     Ply,
+    Intrinsics,
 }
 
 /// Every reader, for the sweep over the whole corpus.
-const ALL_READERS: [Reader; 10] = [
+const ALL_READERS: [Reader; 11] = [
     Reader::Room,
     Reader::Capture,
     Reader::Arrangement,
@@ -39,6 +40,7 @@ const ALL_READERS: [Reader; 10] = [
     Reader::Mask,
     Reader::EnvMap,
     Reader::Ply,
+    Reader::Intrinsics,
 ];
 
 /// Runs `reader` on `path`.
@@ -54,6 +56,7 @@ fn run(reader: Reader, path: &Path) -> Result<(), FormatError> {
         Reader::Mask => read_mask(path).map(drop),
         Reader::EnvMap => read_envmap(path).map(drop),
         Reader::Ply => read_ply(path).map(drop),
+        Reader::Intrinsics => read_intrinsics_file(path).map(drop),
     }
 }
 
@@ -155,6 +158,18 @@ fn every_malformed_file_is_rejected_with_file_field_and_reason() {
         ("room_nan.json", Room, None, "NaN"),
         ("room_truncated.json", Room, None, "not valid JSON"),
         ("room_not_object.json", Room, None, "top level"),
+        (
+            "intrinsics_missing_fl_y.json",
+            Intrinsics,
+            Some("fl_y"),
+            "a photo's intrinsics need it",
+        ),
+        (
+            "intrinsics_negative_width.json",
+            Intrinsics,
+            Some("w"),
+            "integer",
+        ),
         (
             "transforms_fisheye.json",
             Capture,

@@ -5,9 +5,9 @@ use neuroom_core::Pose;
 use neuroom_core::camera::Pinhole;
 use neuroom_core::formats::{
     ArrangedObject, Arrangement, BackgroundSpec, Capture, Conversion, Frame, Room, RoomObject,
-    check_same_size, read_arrangement, read_capture, read_depth, read_image_size, read_mask,
-    read_rgb, read_rgba, read_room, write_arrangement, write_capture, write_depth, write_mask,
-    write_rgb, write_rgba, write_room,
+    check_same_size, read_arrangement, read_capture, read_depth, read_image_size,
+    read_intrinsics_file, read_mask, read_rgb, read_rgba, read_room, write_arrangement,
+    write_capture, write_depth, write_mask, write_rgb, write_rgba, write_room,
 };
 use neuroom_core::image::Image;
 use serde_json::json;
@@ -204,6 +204,22 @@ fn capture_without_camera_model_or_distortion_reads_with_defaults() {
         c.frames[0].camera,
         Pinhole::new(32, 24, 50.0, 50.0, 16.0, 12.0)
     );
+}
+
+#[test]
+fn a_photos_intrinsics_read_alone_or_from_a_transforms_top_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let alone = dir.path().join("camera.json");
+    let text = json!({"w": 64, "h": 48, "fl_x": 40, "fl_y": 41, "cx": 32, "cy": 24, "k1": 0.01});
+    std::fs::write(&alone, text.to_string()).unwrap();
+    let mut expected = Pinhole::new(64, 48, 40.0, 41.0, 32.0, 24.0);
+    expected.k1 = 0.01;
+    assert_eq!(read_intrinsics_file(&alone).unwrap(), expected);
+    let transforms = dir.path().join("transforms.json");
+    let text = json!({"camera_model": "OPENCV", "w": 64, "h": 48, "fl_x": 40, "fl_y": 41, "cx": 32,
+        "cy": 24, "k1": 0.01, "frames": []});
+    std::fs::write(&transforms, text.to_string()).unwrap();
+    assert_eq!(read_intrinsics_file(&transforms).unwrap(), expected);
 }
 
 #[test]

@@ -130,6 +130,7 @@ fn training_lowers_the_loss_and_then_segments_the_squares() {
         query: upsample(&sample.query),
         empty: upsample(&sample.empty),
         empty_depth: vec![2.0; 4 * W * H],
+        seen: None,
     };
     let detector = NetworkDetector {
         network: &network,

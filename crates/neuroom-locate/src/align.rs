@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::features::{FeatureMap, row_weights};
 use crate::plane::Plane;
 use crate::sphere::{direction, project_jacobian};
+use crate::sphere_image::SphereImage;
 
 /// Settings of one alignment.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -89,10 +90,11 @@ struct Point {
     weight: f64,
 }
 
-/// Aligns `query` (same size as the keyframe) to `keyframe`, starting at `init`.
+/// Aligns `query` (same size as the keyframe) to `keyframe`, starting at `init`. Keyframe points that
+/// project where the query saw nothing (outside a photo's field of view) are left out.
 pub fn align(
     keyframe: &Keyframe,
-    query: &RgbImage,
+    query: &SphereImage,
     init: &Pose,
     config: &AlignConfig,
 ) -> Alignment {
@@ -101,8 +103,8 @@ pub fn align(
     for &sigma in &config.sigmas {
         let valid = trusted_pixels(keyframe, config.min_normal_z);
         let kf = config.features(FeatureMap::masked(keyframe.rgb, &valid, sigma));
-        let points = keyframe_points(keyframe, &kf, &valid);
-        let q = QueryMap::new(&config.features(FeatureMap::new(query, sigma)));
+        let q = QueryMap::new(&config.features(query.features(sigma)), query.seen_plane());
+        let points = seen_from(keyframe_points(keyframe, &kf, &valid), &q, &pose);
         pose = solve_scale(&points, &q, pose, config);
         score = correlation(&points, &q, &pose);
     }
@@ -117,17 +119,25 @@ struct QueryMap {
     values: [Plane; 2],
     dx: [Plane; 2],
     dy: [Plane; 2],
+    /// 1 well inside what the query saw, 0 elsewhere ([`SphereImage::seen_plane`]); `None`: all seen.
+    seen: Option<Plane>,
 }
 
 impl QueryMap {
-    fn new(f: &FeatureMap) -> Self {
+    fn new(f: &FeatureMap, seen: Option<Plane>) -> Self {
         let (dx0, dy0) = f.channels[0].gradients();
         let (dx1, dy1) = f.channels[1].gradients();
         Self {
             values: f.channels.clone(),
             dx: [dx0, dx1],
             dy: [dy0, dy1],
+            seen,
         }
+    }
+
+    /// Whether continuous pixel coordinates lie well inside what the query saw.
+    fn sees(&self, x: f64, y: f64) -> bool {
+        self.seen.as_ref().is_none_or(|s| s.sample(x, y) > 0.999)
     }
 
     fn width(&self) -> usize {
@@ -201,19 +211,39 @@ fn keyframe_points(keyframe: &Keyframe, features: &FeatureMap, valid: &[bool]) -
         .collect()
 }
 
-/// Residuals of every point that projects, with their Jacobians with respect to `δ`.
+/// The points the query sees from `pose` (all of them for a panorama): a photo's alignment follows the
+/// part of the keyframe in its field of view.
+fn seen_from(mut points: Vec<Point>, q: &QueryMap, pose: &Pose) -> Vec<Point> {
+    if q.seen.is_some() {
+        let rt = pose.rotation.transpose();
+        points.retain(|pt| {
+            crate::sphere::project(rt * (pt.world - pose.translation), q.width(), q.height())
+                .is_some_and(|pix| q.sees(pix.x, pix.y))
+        });
+    }
+    points
+}
+
+/// Residuals of every point that projects where the query saw, with their Jacobians with respect to
+/// `δ`; returns the total weight of the points that do not.
 fn linearize(
     points: &[Point],
     q: &QueryMap,
     pose: &Pose,
     mut visit: impl FnMut(&Point, [f64; 2], [[f64; 6]; 2]),
-) {
+) -> f64 {
     let rt = pose.rotation.transpose();
+    let mut unseen = 0.0;
     for pt in points {
         let p = rt * (pt.world - pose.translation);
         let Some((pix, jp)) = project_jacobian(p, q.width(), q.height()) else {
+            unseen += pt.weight;
             continue;
         };
+        if !q.sees(pix.x, pix.y) {
+            unseen += pt.weight;
+            continue;
+        }
         // ∂p/∂v = −I, ∂p/∂ω = [p]ₓ (p × ω).
         let skew = DMat3::from_cols(
             DVec3::new(0.0, p.z, -p.y),
@@ -235,16 +265,21 @@ fn linearize(
         }
         visit(pt, r, jac);
     }
+    unseen
 }
+
+/// Robust cost of a point that leaves what the query saw: the Cauchy cost of a residual three times
+/// the scale, so that a photo's alignment cannot lower its cost by looking away from its points.
+const UNSEEN_COST: f64 = std::f64::consts::LN_10;
 
 /// Robust (Cauchy) cost of the residuals at `pose` with scale `c`.
 fn cost(points: &[Point], q: &QueryMap, pose: &Pose, c: f64) -> f64 {
     let mut total = 0.0;
-    linearize(points, q, pose, |pt, r, _| {
+    let unseen = linearize(points, q, pose, |pt, r, _| {
         let e2 = r[0] * r[0] + r[1] * r[1];
         total += pt.weight * (1.0 + e2 / (c * c)).ln();
     });
-    total
+    total + unseen * UNSEEN_COST
 }
 
 /// Median residual norm at `pose`: the robust scale.
@@ -355,13 +390,16 @@ pub fn apply(pose: &Pose, delta: &[f64; 6]) -> Pose {
 }
 
 /// Latitude-weighted normalised correlation between the keyframe features and the query features at
-/// the points' projections.
+/// the points' projections (a point outside what the query saw meets a zero feature).
 fn correlation(points: &[Point], q: &QueryMap, pose: &Pose) -> f64 {
     let rt = pose.rotation.transpose();
     let (mut ab, mut aa, mut bb) = (0.0f64, 0.0f64, 0.0f64);
     for pt in points {
         let p = rt * (pt.world - pose.translation);
-        let Some(pix) = crate::sphere::project(p, q.width(), q.height()) else {
+        let seen =
+            crate::sphere::project(p, q.width(), q.height()).filter(|pix| q.sees(pix.x, pix.y));
+        let Some(pix) = seen else {
+            aa += pt.weight * pt.feature.iter().map(|a| (*a as f64).powi(2)).sum::<f64>();
             continue;
         };
         for c in 0..2 {
@@ -396,7 +434,7 @@ mod tests {
                 })
                 .collect(),
         };
-        let q = QueryMap::new(&FeatureMap::new(&img, 1.5));
+        let q = QueryMap::new(&FeatureMap::new(&img, 1.5), None);
         let points = vec![Point {
             world: DVec3::new(1.3, 0.4, 0.3),
             feature: [0.0, 0.0],

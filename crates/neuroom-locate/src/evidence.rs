@@ -20,6 +20,9 @@ pub struct View {
     pub empty: RgbImage,
     /// Ray distance of the empty room per pixel (0 = none).
     pub empty_depth: Vec<f32>,
+    /// Pixels the camera saw ([`crate::SphereImage::seen`]); `None` for a panorama, which saw them all.
+    /// Nothing is looked for, or held against an object, where the camera saw nothing.
+    pub seen: Option<Vec<bool>>,
 }
 
 impl View {
@@ -31,6 +34,11 @@ impl View {
     /// Rows.
     pub fn height(&self) -> usize {
         self.query.height as usize
+    }
+
+    /// Whether the camera saw pixel `p`.
+    pub fn sees(&self, p: usize) -> bool {
+        self.seen.as_ref().is_none_or(|s| s[p])
     }
 }
 
@@ -80,7 +88,13 @@ impl Default for ResidualDetector {
 impl Detector for ResidualDetector {
     fn detect(&self, view: &View) -> Vec<Detection> {
         let residual = residual(view);
-        let mut sorted = residual.clone();
+        let mut sorted: Vec<f32> = (residual.iter().enumerate())
+            .filter(|(p, _)| view.sees(*p))
+            .map(|(_, r)| *r)
+            .collect();
+        if sorted.is_empty() {
+            return Vec::new();
+        }
         let mid = sorted.len() / 2;
         let median = *sorted.select_nth_unstable_by(mid, f32::total_cmp).1;
         let threshold = (self.factor * median).max(self.floor);
@@ -108,8 +122,8 @@ impl Detector for ResidualDetector {
     }
 }
 
-/// Per-channel gain from the empty room to the query: the median ratio of linear values over pixels
-/// with a depth (a changed light colour or exposure).
+/// Per-channel gain from the empty room to the query: the median ratio of linear values over seen
+/// pixels with a depth (a changed light colour or exposure).
 pub fn room_gains(view: &View) -> [f32; 3] {
     std::array::from_fn(|c| {
         let mut ratios: Vec<f32> = view
@@ -118,8 +132,9 @@ pub fn room_gains(view: &View) -> [f32; 3] {
             .iter()
             .zip(&view.empty.data)
             .zip(&view.empty_depth)
-            .filter(|(_, d)| **d > 0.0)
-            .map(|((q, e), _)| (srgb_to_linear(q[c]) + 1e-3) / (srgb_to_linear(e[c]) + 1e-3))
+            .enumerate()
+            .filter(|(p, (_, d))| **d > 0.0 && view.sees(*p))
+            .map(|(_, ((q, e), _))| (srgb_to_linear(q[c]) + 1e-3) / (srgb_to_linear(e[c]) + 1e-3))
             .collect();
         if ratios.is_empty() {
             return 1.0;
@@ -148,13 +163,20 @@ pub fn colour_error(a: [f32; 3], b: [f32; 3]) -> f32 {
 }
 
 /// Mean absolute sRGB difference per pixel between the query and the relit empty room; 0 where the
-/// empty room has no surface (nothing is known there).
+/// empty room has no surface or the camera saw nothing (nothing is known there).
 pub fn residual(view: &View) -> Vec<f32> {
     relit_room(view)
         .iter()
         .zip(&view.query.data)
         .zip(&view.empty_depth)
-        .map(|((r, q), d)| if *d > 0.0 { colour_error(*q, *r) } else { 0.0 })
+        .enumerate()
+        .map(|(p, ((r, q), d))| {
+            if *d > 0.0 && view.sees(p) {
+                colour_error(*q, *r)
+            } else {
+                0.0
+            }
+        })
         .collect()
 }
 
@@ -244,15 +266,19 @@ mod tests {
         let empty = grey(w, h, 0.6);
         let mut query = empty.map(|c| c.map(|x| x * 0.8));
         paint(&mut query, 6..11, 10..16, [0.1, 0.2, 0.05]);
-        let view = View {
+        let mut view = View {
             query,
             empty,
             empty_depth: vec![2.0; w * h],
+            seen: None,
         };
         let found = ResidualDetector::default().detect(&view);
         assert_eq!(found.len(), 1);
         // Opening removes the one-pixel rim of the 6 × 5 block, dilation restores most of it.
         assert!(found[0].pixels.len() >= 20 && found[0].pixels.len() <= 30);
+        // A photo whose field of view (the left half) misses the object finds nothing.
+        view.seen = Some((0..w * h).map(|p| p % w < w / 2 - 4).collect());
+        assert!(ResidualDetector::default().detect(&view).is_empty());
     }
 
     #[test]
@@ -268,6 +294,7 @@ mod tests {
             query,
             empty,
             empty_depth: vec![2.0; w * h],
+            seen: None,
         };
         let found = ResidualDetector::default().detect(&view);
         assert_eq!(found.len(), 1, "{found:?}");

@@ -9,9 +9,11 @@
 //!   the surface normal), [`evidence`] (where the panorama differs from that empty room; the
 //!   [`evidence::Detector`] trait lets a learned detector replace it), [`cloud`] (coloured surface points
 //!   of each model, projected as a cheap render), [`objects`] (pose hypotheses on the floor, on walls and
-//!   on other objects, scored by render-and-compare, taken greedily).
+//!   on other objects, scored by render-and-compare, taken greedily), [`merge`] (the objects of several
+//!   views of one arrangement as one list).
 //! - Geometry helpers: [`plane`] (single-channel panorama images), [`sphere`] (the equirectangular
-//!   projection with its Jacobian).
+//!   projection with its Jacobian), [`sphere_image`] (the query on the sphere: a panorama, or a photo
+//!   with its intrinsics warped onto it, with the pixels it saw).
 
 pub mod align;
 pub mod cloud;
@@ -19,11 +21,14 @@ pub mod database;
 pub mod evidence;
 pub mod features;
 pub mod localize;
+pub mod merge;
 pub mod objects;
 pub mod plane;
 pub mod shading;
 pub mod sphere;
+pub mod sphere_image;
 pub mod yaw;
 
 pub use database::{DATABASE_FILE, Database, DatabaseConfig, build_database};
 pub use localize::{CameraEstimate, LocalizeConfig, localize, render_background};
+pub use sphere_image::{PANORAMA_FROM_PINHOLE, SphereImage};

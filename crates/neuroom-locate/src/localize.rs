@@ -27,8 +27,8 @@ use serde::{Deserialize, Serialize};
 use crate::align::{AlignConfig, Alignment, Keyframe, align};
 use crate::database::Database;
 use crate::features::FeatureMap;
-use crate::plane::downsample_rgb;
 use crate::shading::match_shading;
+use crate::sphere_image::SphereImage;
 use crate::yaw::{YawMatch, best_yaws};
 
 /// Settings of [`localize`].
@@ -116,18 +116,19 @@ impl CameraEstimate {
     }
 }
 
-/// Finds the camera of `panorama` in the room whose empty-room scene (no objects) is `scene`, using `db`.
+/// Finds the camera of `panorama` (a full panorama, or a photo on its sphere) in the room whose
+/// empty-room scene (no objects) is `scene`, using `db`.
 pub fn localize<F: Field>(
     scene: &Scene<F>,
     db: &Database,
-    panorama: &RgbImage,
+    panorama: &SphereImage,
     config: &LocalizeConfig,
 ) -> Result<CameraEstimate, String> {
     if db.entries.is_empty() {
         return Err("the localization database has no panoramas".into());
     }
     let t0 = Instant::now();
-    let small = downsample_rgb(panorama, db.width, db.height);
+    let small = panorama.downsample(db.width, db.height);
     let matches = search(db, &small, config);
     let search_score = matches.first().map_or(0.0, |m| m.score);
     let t1 = Instant::now();
@@ -144,24 +145,45 @@ pub fn localize<F: Field>(
             align(&keyframe, &small, &init, &config.coarse)
         })
         .collect();
+    let inside = |a: &Alignment| {
+        let t = a.camera_to_world.translation.as_vec3();
+        let room = &scene.background;
+        t.cmpge(room.bounds_min).all() && t.cmple(room.bounds_max).all()
+    };
+    coarse.retain(inside);
+    if coarse.is_empty() {
+        // Every alignment slid out of the room: the heading search's database poses stand.
+        coarse = matches
+            .iter()
+            .map(|m| Alignment {
+                camera_to_world: Pose::from_yaw_translation(
+                    m.yaw,
+                    db.entries[m.entry].position.as_dvec3(),
+                ),
+                score: m.score,
+            })
+            .collect();
+    }
     coarse.sort_by(|a, b| b.score.total_cmp(&a.score));
     let coarse = distinct(coarse, config.distinct, config.finalists.max(1));
     let t2 = Instant::now();
     let (first, rest) = config.fine_widths.split_first().unzip();
+    // A refinement that leaves the room (a photo of a bare wall can slide off) keeps its start.
+    let within = |refined: Alignment, start: &Alignment| {
+        if inside(&refined) { refined } else { *start }
+    };
     let mut best = coarse
         .par_iter()
         .map(|c| {
-            refine(
-                scene,
-                panorama,
-                c,
-                first.map(std::slice::from_ref).unwrap_or(&[]),
-                config,
-            )
+            let first = first.map(std::slice::from_ref).unwrap_or(&[]);
+            within(refine(scene, panorama, c, first, config), c)
         })
         .max_by(|a, b| a.score.total_cmp(&b.score))
         .expect("at least one candidate");
-    best = refine(scene, panorama, &best, rest.unwrap_or(&[]), config);
+    best = within(
+        refine(scene, panorama, &best, rest.unwrap_or(&[]), config),
+        &best,
+    );
     let t3 = Instant::now();
     Ok(CameraEstimate {
         camera_to_world: best.camera_to_world.to_rows(),
@@ -178,27 +200,25 @@ pub fn localize<F: Field>(
 /// Heading search over the database with two kinds of features: signed log-luminance gradients
 /// (discriminative under the lights of the captures) and their orientations (which survive a lighting
 /// change that reverses edges); the best `config.candidates` of each, without repeats, best first.
-fn search(db: &Database, small: &RgbImage, config: &LocalizeConfig) -> Vec<YawMatch> {
-    let signed = |image: &RgbImage, valid: Option<&[bool]>| match valid {
-        Some(valid) => FeatureMap::masked(image, valid, config.yaw_sigma),
-        None => FeatureMap::new(image, config.yaw_sigma),
-    };
+fn search(db: &Database, small: &SphereImage, config: &LocalizeConfig) -> Vec<YawMatch> {
     let kinds: [&dyn Fn(FeatureMap) -> FeatureMap; 2] = [&|f| f.normalized(), &|f| {
         f.orientation(config.orientation_softness).normalized()
     }];
     let mut found: Vec<YawMatch> = Vec::new();
+    let seen = small.seen_plane();
     for kind in kinds {
-        let query = kind(signed(small, None));
+        let query = kind(small.features(config.yaw_sigma));
         let refs: Vec<FeatureMap> = db
             .entries
             .iter()
             .map(|e| {
                 let valid: Vec<bool> = e.depth.iter().map(|d| *d > 0.0).collect();
-                kind(signed(&e.rgb, Some(&valid)))
+                kind(FeatureMap::masked(&e.rgb, &valid, config.yaw_sigma))
             })
             .collect();
         for m in best_yaws(
             &query,
+            seen.as_ref(),
             &refs,
             config.yaws_per_entry,
             config.candidates.max(1),
@@ -243,7 +263,7 @@ fn angle_between(a: f64, b: f64) -> f64 {
 /// Rounds of render-and-align, one per keyframe width.
 fn refine<F: Field>(
     scene: &Scene<F>,
-    panorama: &RgbImage,
+    panorama: &SphereImage,
     start: &Alignment,
     widths: &[usize],
     config: &LocalizeConfig,
@@ -252,7 +272,7 @@ fn refine<F: Field>(
     for &width in widths {
         let at = current.camera_to_world;
         let (rgb, depth) = render_background(scene, &at, width, &config.render);
-        let query = downsample_rgb(panorama, width, width / 2);
+        let query = panorama.downsample(width, width / 2);
         let view = Rendered {
             rgb: &rgb,
             depth: &depth,
@@ -272,7 +292,7 @@ fn refine<F: Field>(
 struct Rendered<'a> {
     rgb: &'a RgbImage,
     depth: &'a [f32],
-    query: &'a RgbImage,
+    query: &'a SphereImage,
     at: Pose,
 }
 
@@ -295,7 +315,11 @@ impl Rendered<'_> {
 /// with the keyframe as rendered. Under a light like the captures' there is no re-shading, and one
 /// alignment.
 fn relit_round(view: &Rendered, config: &LocalizeConfig) -> Alignment {
-    let shaded = match_shading(view.query, view.rgb, view.depth);
+    let shaded = match_shading(
+        &view.query.rgb,
+        view.rgb,
+        &view.query.seen_depth(view.depth),
+    );
     if shaded == *view.rgb {
         return view.align(view.rgb, &view.at, &config.fine);
     }

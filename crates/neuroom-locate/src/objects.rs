@@ -207,7 +207,9 @@ impl Placed {
         let (_, gain) = score(target, self, &sil, config);
         for ((&p, &c), &d) in sil.pixels.iter().zip(&sil.colors).zip(&sil.depths) {
             let p = p as usize;
-            self.error[p] = object_error(target, p, c, &gain, 1.0) as f32;
+            if target.view.sees(p) {
+                self.error[p] = object_error(target, p, c, &gain, 1.0) as f32;
+            }
             self.depth[p] = d;
             self.room_front[p] = false;
         }
@@ -217,7 +219,7 @@ impl Placed {
 }
 
 /// Whether `model` at `pose` would stand inside one of `boxes` ([`Placed::collides`]).
-fn stands_inside(
+pub(crate) fn stands_inside(
     boxes: &[OrientedBox],
     model: &ObjectModel,
     pose: &Pose,
@@ -282,8 +284,11 @@ impl<'a, F: Field> Target<'a, F> {
                 .iter()
                 .zip(&view.query.data)
                 .zip(&view.empty_depth)
-                .map(|((r, q), d)| {
-                    if *d > 0.0 {
+                .enumerate()
+                .map(|(p, ((r, q), d))| {
+                    if !view.sees(p) {
+                        0.0
+                    } else if *d > 0.0 {
                         colour_error(*q, *r)
                     } else {
                         config.unknown_error
@@ -571,12 +576,14 @@ fn score<F>(
     sil: &Silhouette,
     config: &SearchConfig,
 ) -> ((f64, usize, f64), [f64; 3]) {
-    // A rim pixel is modelled as a mix of the object and the room behind it.
+    // A rim pixel is modelled as a mix of the object and the room behind it. What the camera did not
+    // see (outside a photo's field of view) neither supports nor refutes a hypothesis.
     let visible: Vec<(usize, Vec3, f64)> = sil
         .pixels
         .iter()
         .zip(&sil.colors)
         .zip(&sil.rim)
+        .filter(|((p, _), _)| target.view.sees(**p as usize))
         .map(|((p, c), rim)| {
             let p = *p as usize;
             let known = target.view.empty_depth[p] > 0.0;
@@ -656,6 +663,7 @@ fn local_room_gain<F>(
             }
             let q_index = (vv * w + uu) as usize;
             if inside.binary_search(&(q_index as u32)).is_ok()
+                || !target.view.sees(q_index)
                 || !placed.room_front[q_index]
                 || target.view.empty_depth[q_index] <= 0.0
             {

@@ -5,6 +5,7 @@
 use rayon::prelude::*;
 
 use crate::features::{FeatureMap, row_weights};
+use crate::plane::Plane;
 
 /// A database panorama and a heading that match the query.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,10 +43,66 @@ pub fn circular_correlation(query: &FeatureMap, reference: &FeatureMap) -> Vec<f
     scores.iter().map(|s| s / total).collect()
 }
 
+/// [`circular_correlation`] of a query that saw only part of the sphere (`seen`: 1 where it saw, 0
+/// elsewhere; a photo): per channel and shift, the normalised correlation `Σ m q r / √(Σ m q² · Σ m r²)`
+/// over the part of the reference the query's field of view covers at that shift (latitude-weighted),
+/// averaged over channels. Rows the query never saw are skipped.
+pub fn masked_circular_correlation(
+    query: &FeatureMap,
+    seen: &Plane,
+    reference: &FeatureMap,
+) -> Vec<f64> {
+    let (w, h) = (query.width(), query.height());
+    assert_eq!((w, h), (reference.width(), reference.height()));
+    assert_eq!((w, h), (seen.width, seen.height));
+    let weights = row_weights(h);
+    let rows: Vec<usize> = (0..h)
+        .filter(|&v| seen.data[v * w..(v + 1) * w].iter().any(|m| *m > 0.0))
+        .collect();
+    let mut scores = vec![0.0f64; w];
+    for (q, r) in query.channels.iter().zip(&reference.channels) {
+        let (mut qr, mut mr2, mut qq) = (vec![0.0f64; w], vec![0.0f64; w], 0.0f64);
+        let mut masked = vec![0.0f32; 2 * w];
+        let mut mask = vec![0.0f32; 2 * w];
+        for &v in &rows {
+            let weight = weights[v];
+            let row = v * w..(v + 1) * w;
+            for (u, (x, m)) in q.data[row.clone()]
+                .iter()
+                .zip(&seen.data[row.clone()])
+                .enumerate()
+            {
+                masked[u] = x * m;
+                masked[u + w] = x * m;
+                mask[u] = *m;
+                mask[u + w] = *m;
+                qq += (weight * m * x * x) as f64;
+            }
+            let rrow = &r.data[row];
+            let r2: Vec<f32> = rrow.iter().map(|x| x * x).collect();
+            for s in 0..w {
+                let dot: f32 = masked[s..s + w].iter().zip(rrow).map(|(a, b)| a * b).sum();
+                let energy: f32 = mask[s..s + w].iter().zip(&r2).map(|(a, b)| a * b).sum();
+                qr[s] += (weight * dot) as f64;
+                mr2[s] += (weight * energy) as f64;
+            }
+        }
+        for (score, (dot, energy)) in scores.iter_mut().zip(qr.iter().zip(&mr2)) {
+            let norm = (qq * energy).sqrt();
+            if norm > 1e-12 {
+                *score += dot / norm / query.channels.len() as f64;
+            }
+        }
+    }
+    scores
+}
+
 /// The best `per_entry` headings of every entry (local maxima of the correlation, refined to a fraction
-/// of a column by a parabola), best first over all entries, at most `keep` of them.
+/// of a column by a parabola), best first over all entries, at most `keep` of them. A query that saw
+/// only the pixels `seen` marks is compared there only ([`masked_circular_correlation`]).
 pub fn best_yaws(
     query: &FeatureMap,
+    seen: Option<&Plane>,
     entries: &[FeatureMap],
     per_entry: usize,
     keep: usize,
@@ -54,7 +111,10 @@ pub fn best_yaws(
         .par_iter()
         .enumerate()
         .flat_map_iter(|(k, reference)| {
-            let scores = circular_correlation(query, reference);
+            let scores = match seen {
+                Some(seen) => masked_circular_correlation(query, seen, reference),
+                None => circular_correlation(query, reference),
+            };
             peaks(&scores, per_entry)
                 .into_iter()
                 .map(move |(shift, score)| YawMatch {
@@ -94,7 +154,6 @@ fn peaks(scores: &[f64], n: usize) -> Vec<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plane::Plane;
 
     fn pattern(w: usize, h: usize, shift: usize) -> FeatureMap {
         let plane = |phase: f32| Plane {
@@ -119,7 +178,7 @@ mod tests {
         let (w, h) = (64, 32);
         let reference = pattern(w, h, 0);
         let query = pattern(w, h, 10);
-        let best = best_yaws(&query, &[reference], 1, 1)[0];
+        let best = best_yaws(&query, None, &[reference], 1, 1)[0];
         let expected = std::f64::consts::TAU * 10.0 / w as f64;
         assert!(
             (best.yaw - expected).abs() < 0.05,
@@ -127,6 +186,44 @@ mod tests {
             best.yaw
         );
         assert!(best.score > 0.9);
+    }
+
+    #[test]
+    fn the_heading_of_a_partial_view_is_found_from_its_field_of_view() {
+        let (w, h) = (64, 32);
+        let reference = pattern(w, h, 0);
+        let full = pattern(w, h, 10);
+        // A quarter of the columns and the middle rows were seen; elsewhere the query holds noise.
+        let seen = Plane {
+            width: w,
+            height: h,
+            data: (0..w * h)
+                .map(|i| f32::from((20..36).contains(&(i % w)) && (8..24).contains(&(i / w))))
+                .collect(),
+        };
+        let mut query = full.clone();
+        for channel in &mut query.channels {
+            for (i, x) in channel.data.iter_mut().enumerate() {
+                if seen.data[i] == 0.0 {
+                    *x = ((i * 7919) % 13) as f32 - 6.0;
+                }
+            }
+        }
+        let best = best_yaws(&query, Some(&seen), std::slice::from_ref(&reference), 1, 1)[0];
+        let expected = std::f64::consts::TAU * 10.0 / w as f64;
+        assert!(
+            (best.yaw - expected).abs() < 0.05,
+            "{} vs {expected}",
+            best.yaw
+        );
+        assert!(best.score > 0.9, "{}", best.score);
+        // Seen everywhere, the masked correlation of normalised maps is the plain one.
+        let all = Plane::filled(w, h, 1.0);
+        let (a, b) = (
+            masked_circular_correlation(&full, &all, &reference),
+            circular_correlation(&full, &reference),
+        );
+        assert!((a[10] - b[10]).abs() < 1e-3, "{} vs {}", a[10], b[10]);
     }
 
     #[test]

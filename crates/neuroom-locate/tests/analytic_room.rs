@@ -2,7 +2,7 @@
 //! fixed to it (the "background"), and movable boxes.
 
 use glam::{DMat3, DVec3, Vec3};
-use neuroom_core::camera::Equirect;
+use neuroom_core::camera::{Equirect, Pinhole};
 use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_field::{AnalyticColor, AnalyticField, CodeSet};
@@ -12,7 +12,8 @@ use neuroom_locate::objects::{
     ObjectModel, Placement, SearchConfig, SearchInput, find_objects, pose_score,
 };
 use neuroom_locate::{
-    Database, DatabaseConfig, LocalizeConfig, build_database, localize, render_background,
+    Database, DatabaseConfig, LocalizeConfig, PANORAMA_FROM_PINHOLE, SphereImage, build_database,
+    localize, render_background,
 };
 use neuroom_render::{Background, InstanceCodes, Model, RenderConfig, Scene, SceneObject, Tone};
 
@@ -123,7 +124,7 @@ fn small_database(empty: &Scene<AnalyticField>) -> Database {
 fn localization_error(
     empty: &Scene<AnalyticField>,
     db: &Database,
-    query: &RgbImage,
+    query: &SphereImage,
     truth: &Pose,
 ) -> (f64, f64) {
     let config = LocalizeConfig {
@@ -145,7 +146,7 @@ fn the_camera_is_found_despite_an_object_and_a_darker_exposure() {
     assert!(db.entries.len() >= 6, "{} entries", db.entries.len());
     let truth = Pose::from_yaw_translation(2.1, DVec3::new(1.35, 1.1, 1.5));
     let object = Pose::from_yaw_translation(0.4, DVec3::new(2.6, 1.9, 0.25));
-    let query = panorama(&scene(Some((0, object))), &truth, 256, 0.8);
+    let query = SphereImage::panorama(panorama(&scene(Some((0, object))), &truth, 256, 0.8));
     let (position, rotation) = localization_error(&empty, &db, &query, &truth);
     assert!(position < 0.03, "position error {position} m");
     assert!(rotation < 0.5, "rotation error {rotation}°");
@@ -183,7 +184,7 @@ fn the_camera_is_found_under_other_lights() {
     let db = small_database(&empty);
     let truth = Pose::from_yaw_translation(-0.9, DVec3::new(2.55, 1.8, 1.45));
     let object = Pose::from_yaw_translation(0.4, DVec3::new(1.2, 2.2, 0.25));
-    let query = relit_panorama(&scene(Some((0, object))), &truth, 256);
+    let query = SphereImage::panorama(relit_panorama(&scene(Some((0, object))), &truth, 256));
     let (position, rotation) = localization_error(&empty, &db, &query, &truth);
     // The target.
     assert!(position < 0.05, "position error {position} m");
@@ -198,7 +199,7 @@ fn edge_orientations_align_a_panorama_whose_contrast_is_reversed() {
     let width = 128;
     let (rgb, depth) = render_background(&empty, &truth, width, &RenderConfig::default());
     // Another light that turns every edge around: the brighter side of each is now the darker.
-    let query = rgb.map(|c| c.map(|x| 0.9 - 0.8 * x));
+    let query = SphereImage::panorama(rgb.map(|c| c.map(|x| 0.9 - 0.8 * x)));
     let keyframe = Keyframe {
         rgb: &rgb,
         depth: &depth,
@@ -290,6 +291,7 @@ fn object_view(camera: &Pose, truth: &Pose) -> (Scene<AnalyticField>, View) {
         query,
         empty: room,
         empty_depth: depth,
+        seen: None,
     };
     (empty, view)
 }
@@ -363,4 +365,65 @@ fn the_true_pose_scores_above_a_turned_or_shifted_one() {
         let s = score(&other);
         assert!(s.0 < best.0, "{s:?} ≥ {best:?}");
     }
+}
+
+/// A 90° × 74° photo of `scene` from a level camera whose panorama frame is `camera` (looking along its
+/// +x), under a 0.85 exposure.
+fn photo(scene: &Scene<AnalyticField>, camera: &Pose) -> (RgbImage, Pinhole) {
+    let intrinsics = Pinhole::new(200, 150, 100.0, 100.0, 100.0, 75.0);
+    let gl = Pose::new(camera.rotation * PANORAMA_FROM_PINHOLE, camera.translation);
+    let (rgb, _, _) =
+        neuroom_render::render_image(scene, &intrinsics, &gl, &RenderConfig::default());
+    (rgb.map(|c| c.map(|x| x * 0.85)), intrinsics)
+}
+
+#[test]
+#[ignore = "photo localization is not reliable yet: since the alignment counts points leaving the photo's field of view, this case ends off by more than 5 cm (see README, Locating photos)"]
+fn the_camera_of_a_photo_is_found_from_its_field_of_view() {
+    let empty = scene(None);
+    let db = small_database(&empty);
+    // Looking west at the red fixture, with the red box in view.
+    let truth = Pose::from_yaw_translation(3.0, DVec3::new(2.3, 1.2, 1.45));
+    let object = Pose::from_yaw_translation(0.4, DVec3::new(1.0, 1.6, 0.25));
+    let (rgb, intrinsics) = photo(&scene(Some((0, object))), &truth);
+    let query = SphereImage::from_photo(&rgb, &intrinsics);
+    let seen = query.seen.as_ref().unwrap();
+    assert!(seen.iter().filter(|s| **s).count() * 5 < seen.len());
+    let (position, rotation) = localization_error(&empty, &db, &query, &truth);
+    assert!(position < 0.05, "position error {position} m");
+    assert!(rotation < 0.5, "rotation error {rotation}°");
+}
+
+#[test]
+fn an_object_in_a_photo_is_placed_and_what_the_photo_cannot_see_is_not_held_against_it() {
+    let camera = Pose::from_yaw_translation(0.49, DVec3::new(1.0, 1.1, 1.0));
+    let truth = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, BOX_A.z as f64));
+    let empty = scene(None);
+    let (rgb, intrinsics) = photo(&scene(Some((0, truth))), &camera);
+    let sphere = SphereImage::from_photo(&rgb, &intrinsics).downsample(256, 128);
+    let (room, depth) = render_background(&empty, &camera, 256, &RenderConfig::default());
+    let view = View {
+        query: sphere.rgb,
+        empty: room,
+        empty_depth: depth,
+        seen: sphere.seen,
+    };
+    let detections = ResidualDetector::default().detect(&view);
+    assert!(!detections.is_empty());
+    let models = object_models();
+    let input = SearchInput {
+        empty: &empty,
+        view: &view,
+        camera_to_world: camera,
+        detections: &detections,
+        models: &models,
+    };
+    let found = find_objects(&input, &SearchConfig::default());
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert_eq!(found[0].id, 1);
+    let pose = Pose::from_rows_unchecked(&found[0].object_to_world);
+    let position = pose.translation.distance(truth.translation);
+    // 9.7 cm here, at 256 columns; the full panorama of this camera places the box within 3 cm, but
+    // the photo's resampled pixels score a pose 10 cm nearer as high as the truth (25.6 against 25.5).
+    assert!(position < 0.12, "position error {position} m");
 }

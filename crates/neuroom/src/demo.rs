@@ -254,7 +254,10 @@ fn locate_panoramas(
             locate(
                 room,
                 models,
-                &panorama,
+                &crate::locate::LocateInput {
+                    images: std::slice::from_ref(&panorama),
+                    intrinsics: None,
+                },
                 &out,
                 &LocateConfig::default(),
                 Some(&fit),

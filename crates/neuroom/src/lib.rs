@@ -12,6 +12,7 @@ pub mod fit;
 pub mod identify;
 pub mod inspect;
 pub mod locate;
+pub mod locate_photos;
 pub mod relight;
 pub mod scene;
 pub mod score;

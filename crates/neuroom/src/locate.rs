@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use glam::Vec3;
+use neuroom_core::camera::Pinhole;
 use neuroom_core::formats::{
     self, ArrangedObject, Arrangement, Room, RoomObject, read_rgb, read_room,
 };
@@ -18,14 +19,15 @@ use neuroom_fit::{FitConfig, IterationLog};
 use neuroom_identify::{DetectConfig, Network, NetworkDetector};
 use neuroom_locate::cloud::{FreeSpace, carve, surface_cloud};
 use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View};
+use neuroom_locate::merge::merge_views;
 use neuroom_locate::objects::{
     Found, ObjectModel, Placement, SearchConfig, SearchInput, find_objects,
 };
-use neuroom_locate::plane::{blur_rgb, downsample_rgb};
+use neuroom_locate::plane::blur_rgb;
 use neuroom_locate::shading::match_shading;
 use neuroom_locate::{
-    CameraEstimate, DATABASE_FILE, Database, DatabaseConfig, LocalizeConfig, build_database,
-    localize, render_background,
+    CameraEstimate, DATABASE_FILE, Database, DatabaseConfig, LocalizeConfig, PANORAMA_FROM_PINHOLE,
+    SphereImage, build_database, localize, render_background,
 };
 use neuroom_render::RenderConfig;
 use neuroom_render::scene::{Background, Model, Scene};
@@ -330,31 +332,118 @@ pub struct Located {
     pub seconds: [f64; 2],
 }
 
-/// Locates `image` in the room of `ctx`: camera, detections, objects and initial poses; returns the
-/// arrangement (FORMAT.md, with the camera; `image` names the panorama file) and the details.
+/// The image `locate` understands.
+#[derive(Clone, Debug)]
+pub enum QueryImage {
+    /// An equirectangular panorama (FORMAT.md).
+    Panorama(RgbImage),
+    /// A photo with its intrinsics, taken by a camera held level (no pitch or roll).
+    Photo {
+        /// The photo.
+        rgb: RgbImage,
+        /// Its intrinsics (OpenGL frame, as in `transforms.json`).
+        camera: Pinhole,
+    },
+}
+
+impl QueryImage {
+    /// The image on the sphere of its camera's panorama frame.
+    pub fn sphere(&self) -> SphereImage {
+        match self {
+            Self::Panorama(rgb) => SphereImage::panorama(rgb.clone()),
+            Self::Photo { rgb, camera } => SphereImage::from_photo(rgb, camera),
+        }
+    }
+
+    /// The camera as the arrangement states it, from its panorama frame: a photo's is its OpenGL frame.
+    pub fn camera_to_world(&self, panorama_frame: &Pose) -> Pose {
+        match self {
+            Self::Panorama(_) => *panorama_frame,
+            Self::Photo { .. } => Pose::new(
+                panorama_frame.rotation * PANORAMA_FROM_PINHOLE,
+                panorama_frame.translation,
+            ),
+        }
+    }
+
+    /// The intrinsics an arrangement records for a photo (`transforms.json` keys).
+    fn intrinsics_json(&self) -> Option<serde_json::Value> {
+        let Self::Photo { camera: c, .. } = self else {
+            return None;
+        };
+        Some(serde_json::json!({
+            "camera_model": "OPENCV", "w": c.width, "h": c.height, "fl_x": c.fx, "fl_y": c.fy,
+            "cx": c.cx, "cy": c.cy, "k1": c.k1, "k2": c.k2, "p1": c.p1, "p2": c.p2,
+        }))
+    }
+}
+
+/// Locates `query` in the room of `ctx`: camera, detections, objects and initial poses; returns the
+/// arrangement (FORMAT.md, with the camera; `image_name` names the image file; a photo's intrinsics are
+/// recorded as `camera`) and the details (whose camera is the panorama frame).
 pub fn locate_image(
     ctx: &LocateContext,
-    image: &RgbImage,
+    query: &QueryImage,
     image_name: &str,
     config: &LocateConfig,
 ) -> anyhow::Result<(Arrangement, Located)> {
+    let located = locate_view(ctx, query, image_name, config)?;
+    let mut arrangement = arrangement_of(ctx, &located.found, query, &located.camera.pose());
+    arrangement.image = image_name.to_string();
+    Ok((arrangement, located))
+}
+
+/// Locates several views of one arrangement (panoramas or photos, [`QueryImage`]), each on its own,
+/// and merges their objects ([`merge_views`]). The arrangement states the first view's camera and
+/// image; every view's image, camera and intrinsics are listed under `views`.
+pub fn locate_views(
+    ctx: &LocateContext,
+    views: &[(QueryImage, String)],
+    config: &LocateConfig,
+) -> anyhow::Result<(Arrangement, Vec<Located>)> {
+    let (first, first_name) = views.first().context("no image to locate")?;
+    let located = views
+        .iter()
+        .map(|(query, name)| locate_view(ctx, query, name, config))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let merged = match located.as_slice() {
+        [one] => one.found.clone(),
+        _ => {
+            let found: Vec<Vec<Found>> = located.iter().map(|l| l.found.clone()).collect();
+            merge_views(&found, &ctx.objects, &config.search)
+        }
+    };
+    let mut arrangement = arrangement_of(ctx, &merged, first, &located[0].camera.pose());
+    arrangement.image = first_name.clone();
+    let listed: Vec<serde_json::Value> = views
+        .iter()
+        .zip(&located)
+        .map(|((query, name), l)| {
+            serde_json::json!({
+                "image": name,
+                "camera_to_world": query.camera_to_world(&l.camera.pose()).to_rows(),
+                "camera": query.intrinsics_json(),
+            })
+        })
+        .collect();
+    arrangement.extra.insert("views".into(), listed.into());
+    Ok((arrangement, located))
+}
+
+/// The camera and the objects of one view.
+fn locate_view(
+    ctx: &LocateContext,
+    query: &QueryImage,
+    image_name: &str,
+    config: &LocateConfig,
+) -> anyhow::Result<Located> {
     let t0 = Instant::now();
-    let camera = localize(&ctx.scene, &ctx.database, image, &config.localize)
+    let sphere = query.sphere();
+    let camera = localize(&ctx.scene, &ctx.database, &sphere, &config.localize)
         .map_err(|m| anyhow::anyhow!("{image_name}: {m}"))?;
     let t1 = Instant::now();
     let pose = camera.pose();
-    let w = config.object_width;
-    let (empty, empty_depth) = render_background(&ctx.scene, &pose, w, &config.render);
-    let query = downsample_rgb(image, w, w / 2);
-    let mut empty = blur_rgb(&empty, config.empty_blur);
-    if config.match_shading {
-        empty = match_shading(&query, &empty, &empty_depth);
-    }
-    let view = View {
-        query,
-        empty,
-        empty_depth,
-    };
+    let view = object_view(ctx, &sphere, &pose, config);
     let detections = detect_objects(ctx, &view, config);
     let input = SearchInput {
         empty: &ctx.scene,
@@ -364,6 +453,21 @@ pub fn locate_image(
         models: &ctx.objects,
     };
     let found = find_objects(&input, &config.search);
+    Ok(Located {
+        camera,
+        detections: detections.len(),
+        found,
+        seconds: [(t1 - t0).as_secs_f64(), t1.elapsed().as_secs_f64()],
+    })
+}
+
+/// The arrangement of `found` seen by `query` from the panorama frame `camera` (its image left empty).
+fn arrangement_of(
+    ctx: &LocateContext,
+    found: &[Found],
+    query: &QueryImage,
+    camera: &Pose,
+) -> Arrangement {
     let objects = found
         .iter()
         .map(|f| ArrangedObject {
@@ -379,20 +483,51 @@ pub fn locate_image(
             extra: Default::default(),
         })
         .collect();
-    let arrangement = Arrangement {
-        image: image_name.to_string(),
-        camera_to_world: pose,
+    let mut arrangement = Arrangement {
+        image: String::new(),
+        camera_to_world: query.camera_to_world(camera),
         objects,
         lighting: serde_json::Value::Null,
         extra: Default::default(),
     };
-    let located = Located {
-        camera,
-        detections: detections.len(),
-        found,
-        seconds: [(t1 - t0).as_secs_f64(), t1.elapsed().as_secs_f64()],
-    };
-    Ok((arrangement, located))
+    if let Some(intrinsics) = query.intrinsics_json() {
+        arrangement.extra.insert("camera".into(), intrinsics);
+    }
+    arrangement
+}
+
+/// The query at the object search's resolution beside the empty room rendered at `pose` and re-shaded
+/// to the query's light from what the query saw; where it saw nothing, the query shows that empty room.
+fn object_view(
+    ctx: &LocateContext,
+    sphere: &SphereImage,
+    pose: &Pose,
+    config: &LocateConfig,
+) -> View {
+    let w = config.object_width;
+    let (empty, empty_depth) = render_background(&ctx.scene, pose, w, &config.render);
+    let small = sphere.downsample(w, w / 2);
+    let mut empty = blur_rgb(&empty, config.empty_blur);
+    if config.match_shading {
+        empty = match_shading(&small.rgb, &empty, &small.seen_depth(&empty_depth));
+    }
+    let SphereImage {
+        rgb: mut query,
+        seen,
+    } = small;
+    if let Some(seen) = &seen {
+        for ((q, e), s) in query.data.iter_mut().zip(&empty.data).zip(seen) {
+            if !s {
+                *q = *e;
+            }
+        }
+    }
+    View {
+        query,
+        empty,
+        empty_depth,
+        seen,
+    }
 }
 
 /// The object regions of `view` by the detector `config` chooses: the network's (alone, or naming the
@@ -419,36 +554,48 @@ pub struct LocateOutputs {
     pub init: PathBuf,
     /// The final arrangement (after the fit, when run).
     pub arrangement: PathBuf,
-    /// What was found.
-    pub located: Located,
+    /// Whether the holistic fit ran (it takes one panorama).
+    pub fitted: bool,
+    /// What was found in each view.
+    pub located: Vec<Located>,
 }
 
-/// `neuroom locate`: finds the camera and the objects of `panorama` in `room` with the models in
-/// `models`, writes the initial arrangement beside `out` (`<stem>.init.json`), then, with `fit`, runs the
-/// holistic fit from it and writes the solved arrangement to `out` (without, `out` gets the initial one).
+/// The images `neuroom locate` is given.
+#[derive(Clone, Copy, Debug)]
+pub struct LocateInput<'a> {
+    /// Panoramas, or photos with `intrinsics`; several are views of one arrangement.
+    pub images: &'a [PathBuf],
+    /// The photos' intrinsics file ([`formats::read_intrinsics_file`]); `None` for panoramas.
+    pub intrinsics: Option<&'a Path>,
+}
+
+/// `neuroom locate`: finds the camera and the objects of `images` (panoramas, or with `intrinsics`
+/// photos: [`read_query`]; several are views of one arrangement, [`locate_views`]) in `room` with the
+/// models in `models`, writes the initial arrangement beside `out` (`<stem>.init.json`), then, with
+/// `fit`, runs the holistic fit from it and writes the solved arrangement to `out`. The fit takes one
+/// panorama; otherwise (and without `fit`) `out` gets the initial arrangement.
 pub fn locate(
     room: &Path,
     models: &Path,
-    panorama: &Path,
+    input: &LocateInput,
     out: &Path,
     config: &LocateConfig,
     fit: Option<&FitConfig>,
     progress: &mut dyn FnMut(&IterationLog),
 ) -> anyhow::Result<LocateOutputs> {
-    let image = read_rgb(panorama)?.image;
-    anyhow::ensure!(
-        image.width == 2 * image.height,
-        "{}: a panorama must be twice as wide as it is high, found {}×{}",
-        panorama.display(),
-        image.width,
-        image.height
-    );
+    let LocateInput { images, intrinsics } = *input;
+    let views = images
+        .iter()
+        .map(|image| {
+            let name = image
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            Ok((read_query(image, intrinsics)?, name))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let ctx = LocateContext::load(room, models, config)?;
-    let name = panorama
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let (mut arrangement, located) = locate_image(&ctx, &image, &name, config)?;
+    let (mut arrangement, located) = locate_views(&ctx, &views, config)?;
     arrangement
         .extra
         .insert("locate".into(), serde_json::to_value(&located)?);
@@ -458,17 +605,52 @@ pub fn locate(
         .unwrap_or_else(|| "locate".into());
     let init = out.with_file_name(format!("{stem}.init.json"));
     formats::write_arrangement(&init, &arrangement)?;
-    match fit {
-        Some(fit) if !arrangement.objects.is_empty() => {
+    let fitted = match (fit, images) {
+        (Some(fit), [panorama]) if !arrangement.objects.is_empty() && intrinsics.is_none() => {
             crate::fit::fit_panorama(models, panorama, &init, Some(room), out, fit, progress)?;
+            true
         }
-        _ => formats::write_arrangement(out, &arrangement)?,
-    }
+        _ => {
+            formats::write_arrangement(out, &arrangement)?;
+            false
+        }
+    };
     Ok(LocateOutputs {
         init,
         arrangement: out.to_path_buf(),
+        fitted,
         located,
     })
+}
+
+/// Reads the image `locate` is given: a panorama (twice as wide as high), or with `intrinsics` (a
+/// JSON file of `transforms.json`'s camera keys, [`formats::read_intrinsics_file`]) a photo of that
+/// size.
+pub fn read_query(image: &Path, intrinsics: Option<&Path>) -> anyhow::Result<QueryImage> {
+    let rgb = read_rgb(image)?.image;
+    let Some(intrinsics) = intrinsics else {
+        anyhow::ensure!(
+            rgb.width == 2 * rgb.height,
+            "{}: a panorama must be twice as wide as it is high, found {}×{} (a photo needs \
+             --intrinsics)",
+            image.display(),
+            rgb.width,
+            rgb.height
+        );
+        return Ok(QueryImage::Panorama(rgb));
+    };
+    let camera = formats::read_intrinsics_file(intrinsics)?;
+    anyhow::ensure!(
+        (camera.width, camera.height) == (rgb.width, rgb.height),
+        "{}: the photo is {}×{} but {} gives intrinsics for {}×{}",
+        image.display(),
+        rgb.width,
+        rgb.height,
+        intrinsics.display(),
+        camera.width,
+        camera.height
+    );
+    Ok(QueryImage::Photo { rgb, camera })
 }
 
 /// Scores of one test panorama.
@@ -542,7 +724,8 @@ pub fn bench_locate(
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         let start = Instant::now();
-        let (initial, located) = locate_image(&ctx, &image, &name, config)?;
+        let (initial, located) =
+            locate_image(&ctx, &QueryImage::Panorama(image.clone()), &name, config)?;
         let initial_score = fit.map(|_| crate::score::score_in_room(&ctx.room, &truth, &initial));
         let arrangement = match fit {
             Some(fit) if !initial.objects.is_empty() => {
@@ -582,10 +765,16 @@ pub fn bench_locate(
     Ok((scores, mean))
 }
 
-fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {
+/// Means over `scores`; IoU, ARE and APE over the images where they are defined (objects to find, and
+/// found).
+pub(crate) fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {
     let n = scores.len().max(1) as f64;
     let mean = |f: &dyn Fn(&PanoramaScore) -> f64| scores.iter().map(f).sum::<f64>() / n;
     let max = |f: &dyn Fn(&PanoramaScore) -> f64| scores.iter().map(f).fold(0.0, f64::max);
+    let defined = |f: &dyn Fn(&PanoramaScore) -> Option<f64>| {
+        let values: Vec<f64> = scores.iter().filter_map(f).collect();
+        values.iter().sum::<f64>() / values.len().max(1) as f64
+    };
     LocateMean {
         panoramas: scores.len(),
         camera_position_error_cm: mean(&|s| s.camera_position_error_cm),
@@ -594,9 +783,9 @@ fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {
         camera_rotation_error_max_deg: max(&|s| s.camera_rotation_error_deg),
         precision: mean(&|s| s.objects.precision),
         recall: mean(&|s| s.objects.recall),
-        iou_percent: mean(&|s| s.objects.mean_iou_percent.unwrap_or(0.0)),
-        are_deg: mean(&|s| s.objects.mean_rotation_error_deg.unwrap_or(0.0)),
-        ape_cm: mean(&|s| s.objects.mean_position_error_cm.unwrap_or(0.0)),
+        iou_percent: defined(&|s| s.objects.mean_iou_percent),
+        are_deg: defined(&|s| s.objects.mean_rotation_error_deg),
+        ape_cm: defined(&|s| s.objects.mean_position_error_cm),
         seconds: mean(&|s| s.seconds),
         initial: scores.iter().all(|s| s.initial.is_some()).then(|| {
             let of = |f: &dyn Fn(&ArrangementScore) -> Option<f64>| {

@@ -45,7 +45,11 @@ enum Which {
     /// the camera, the identification and the initial poses against the ground truth (with `--fit`, also
     /// the poses the holistic fit solves from them).
     ///
-    /// Example: `neuroom bench locate rooms/bedroom models/bedroom --fit --json`
+    /// With `--photos N`, each test panorama is cut into N level photos (90° wide, 320 × 240), each
+    /// located on its own and scored on the objects it shows.
+    ///
+    /// Example: `neuroom bench locate rooms/bedroom models/bedroom --fit --json`, or
+    /// `neuroom bench locate rooms/bedroom models/bedroom --photos 4 --json`
     Locate(LocateArgs),
 }
 
@@ -65,8 +69,17 @@ struct LocateArgs {
     #[arg(long)]
     detector: Option<neuroom::locate::DetectorChoice>,
     /// Also run the holistic fit from the initial poses (as `neuroom locate` does) and score its poses.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "photos")]
     fit: bool,
+    /// Locate photos cut from the panoramas instead: this many per panorama, at evenly spaced headings.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=36))]
+    photos: Option<u32>,
+    /// Horizontal field of view of those photos (degrees).
+    #[arg(long, default_value_t = 90.0, requires = "photos")]
+    photo_fov: f64,
+    /// Also merge each panorama's photos as views of one arrangement, scored against all its objects.
+    #[arg(long, requires = "photos")]
+    merge: bool,
     /// Print one JSON object per panorama and one for the mean, after the text.
     #[arg(long)]
     json: bool,
@@ -284,7 +297,7 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
         ..neuroom_fit::FitConfig::refinement()
     };
     let fit = a.fit.then_some(&fit);
-    let (_, mean) = neuroom::locate::bench_locate(&a.room, &a.models, &config, fit, &mut |s| {
+    let mut each = |s: &neuroom::locate::PanoramaScore| {
         if let Some(i) = &s.initial {
             println!(
                 "{}: initial poses IoU {:.1} %, ARE {:.1}°, APE {:.1} cm; after the fit:",
@@ -309,10 +322,47 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
         if a.json {
             println!("{}", serde_json::to_string(s).unwrap_or_default());
         }
-    })?;
+    };
+    let mean = match a.photos {
+        Some(n) => {
+            anyhow::ensure!(
+                a.photo_fov > 1.0 && a.photo_fov < 170.0,
+                "--photo-fov: {} is not a field of view between 1° and 170°",
+                a.photo_fov
+            );
+            let cut = neuroom::locate_photos::PhotoCut {
+                per_panorama: n as usize,
+                horizontal_fov_deg: a.photo_fov,
+                merge: a.merge,
+                ..Default::default()
+            };
+            let bench = neuroom::locate_photos::bench_locate_photos(
+                &a.room, &a.models, &config, &cut, &mut each,
+            )?;
+            if let Some((_, merged)) = &bench.merged {
+                print_locate_mean("merged photos", merged, a.json)?;
+            }
+            bench.photos.1
+        }
+        None => neuroom::locate::bench_locate(&a.room, &a.models, &config, fit, &mut each)?.1,
+    };
+    print_locate_mean("", &mean, a.json)
+}
+
+/// Prints the mean of `neuroom bench locate` (labelled `label` when not empty), and with `json` as JSON.
+fn print_locate_mean(
+    label: &str,
+    mean: &neuroom::locate::LocateMean,
+    json: bool,
+) -> anyhow::Result<()> {
+    let label = if label.is_empty() {
+        String::new()
+    } else {
+        format!("{label}: ")
+    };
     println!(
-        "mean of {}: camera {:.2} cm (max {:.2}) {:.3}° (max {:.3}), P {:.2} R {:.2}, IoU {:.1} %, \
-         ARE {:.1}°, APE {:.1} cm, {:.1} s per panorama",
+        "{label}mean of {}: camera {:.2} cm (max {:.2}) {:.3}° (max {:.3}), P {:.2} R {:.2}, \
+         IoU {:.1} %, ARE {:.1}°, APE {:.1} cm, {:.1} s per image",
         mean.panoramas,
         mean.camera_position_error_cm,
         mean.camera_position_error_max_cm,
@@ -328,8 +378,12 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
     if let Some([iou, are, ape]) = mean.initial {
         println!("mean of the initial poses: IoU {iou:.1} %, ARE {are:.1}°, APE {ape:.1} cm");
     }
-    if a.json {
-        println!("{}", serde_json::to_string(&mean)?);
+    if json {
+        let mut value = serde_json::to_value(mean)?;
+        if !label.is_empty() {
+            value["of"] = label.trim_end_matches(": ").into();
+        }
+        println!("{value}");
     }
     Ok(())
 }

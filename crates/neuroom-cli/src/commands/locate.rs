@@ -1,5 +1,5 @@
 //! `neuroom locate ROOM MODELS PANORAMA -o ARRANGEMENT.json`: camera, objects and poses from a bare
-//! panorama.
+//! panorama (or a photo with `--intrinsics`).
 
 use std::path::PathBuf;
 
@@ -12,17 +12,31 @@ use crate::progress::StageBars;
 /// initial poses, then solve poses, tone and light codes by the holistic fit. Writes the arrangement
 /// (FORMAT.md, with the camera), the initial one beside it (`<OUT stem>.init.json`) and the fit's report
 /// and renders. The first run on a model folder builds its localization database (`locate.safetensors`).
+/// A photo taken by a level camera works too, given its intrinsics: it is located and its objects
+/// found within its field of view. Several images are several views of one arrangement: each is
+/// located on its own and their objects are merged. (The holistic fit takes one panorama; other input
+/// gets the initial poses.)
 ///
 /// Example: `neuroom locate rooms/bedroom models/bedroom rooms/bedroom/panoramas/bedroom_a0_l0.png
-/// -o arrangement.json`
+/// -o arrangement.json`; for a photo: `neuroom locate rooms/bedroom models/bedroom photo.png
+/// --intrinsics camera.json -o arrangement.json` with camera.json
+/// `{"w": 640, "h": 480, "fl_x": 320, "fl_y": 320, "cx": 320, "cy": 240}`; for several photos of one
+/// arrangement: `neuroom locate rooms/bedroom models/bedroom a.png b.png c.png --intrinsics
+/// camera.json -o arrangement.json`
 #[derive(clap::Args)]
 pub struct Args {
     /// The room folder (room.json: object names, sizes and relation hints).
     room: PathBuf,
     /// The room's model folder (as written by `neuroom train`).
     models: PathBuf,
-    /// The equirectangular panorama (width = 2 × height).
-    panorama: PathBuf,
+    /// The equirectangular panorama (width = 2 × height), or a photo with `--intrinsics`; several are
+    /// views of one arrangement.
+    #[arg(required = true)]
+    images: Vec<PathBuf>,
+    /// The photos' intrinsics: JSON with `transforms.json`'s camera keys (`w`, `h`, `fl_x`, `fl_y`,
+    /// `cx`, `cy`, optional OPENCV distortion `k1`, `k2`, `p1`, `p2`). The camera must be level.
+    #[arg(long)]
+    intrinsics: Option<PathBuf>,
     /// Output arrangement JSON.
     #[arg(short, long)]
     out: PathBuf,
@@ -59,21 +73,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let outputs = neuroom::locate::locate(
         &args.room,
         &args.models,
-        &args.panorama,
+        &neuroom::locate::LocateInput {
+            images: &args.images,
+            intrinsics: args.intrinsics.as_deref(),
+        },
         &args.out,
         &config,
         (!args.no_fit).then_some(&fit),
         &mut |log| bars.update("fit", log.iteration as u64 + 1, total),
     )?;
-    let located = &outputs.located;
-    println!(
-        "camera found in {:.1} s (alignment score {:.3}); {} detections, {} objects placed in {:.1} s",
-        located.seconds[0],
-        located.camera.score,
-        located.detections,
-        located.found.len(),
-        located.seconds[1]
-    );
+    for (image, located) in args.images.iter().zip(&outputs.located) {
+        println!(
+            "{}: camera found in {:.1} s (alignment score {:.3}); {} detections, {} objects placed in \
+             {:.1} s",
+            image.display(),
+            located.seconds[0],
+            located.camera.score,
+            located.detections,
+            located.found.len(),
+            located.seconds[1]
+        );
+    }
+    if !outputs.fitted && !args.no_fit && (args.images.len() > 1 || args.intrinsics.is_some()) {
+        println!("the holistic fit takes one panorama: the arrangement holds the initial poses");
+    }
     println!(
         "initial arrangement: {}\narrangement: {}",
         outputs.init.display(),

@@ -22,7 +22,10 @@ pub use images::{
     read_rgba, write_depth, write_mask, write_rgb, write_rgba,
 };
 pub use room::{BackgroundSpec, Room, RoomObject, parse_room, read_room, write_room};
-pub use transforms::{Capture, Frame, parse_capture, read_capture, write_capture};
+pub use transforms::{
+    Capture, Frame, parse_capture, parse_intrinsics, read_capture, read_intrinsics_file,
+    write_capture,
+};
 
 use crate::error::{FormatError, FormatResult};
 use std::collections::HashSet;

@@ -114,6 +114,24 @@ pub fn parse_capture(file: &Path, bytes: &[u8]) -> FormatResult<Capture> {
     })
 }
 
+/// Reads the intrinsics of a photo: a JSON object with `transforms.json`'s top-level camera keys
+/// (`w`, `h`, `fl_x`, `fl_y`, `cx`, `cy`, optional OPENCV distortion, optional `camera_model`), e.g.
+/// `{"w": 640, "h": 480, "fl_x": 500, "fl_y": 500, "cx": 320, "cy": 240}`. Other keys are ignored, so
+/// a `transforms.json` whose intrinsics are given at its top level serves as well.
+pub fn read_intrinsics_file(path: impl AsRef<Path>) -> FormatResult<Pinhole> {
+    let file = path.as_ref();
+    let bytes =
+        std::fs::read(file).map_err(|e| FormatError::file(file, format!("cannot read: {e}")))?;
+    parse_intrinsics(file, &bytes)
+}
+
+/// Parses the bytes of the intrinsics file `file`, validating as [`read_intrinsics_file`] does.
+pub fn parse_intrinsics(file: &Path, bytes: &[u8]) -> FormatResult<Pinhole> {
+    let value = parse_json(file, bytes)?;
+    let top = JsonObject::root(file, &value)?;
+    read_camera(&top, &[None; 10], "missing: a photo's intrinsics need it")
+}
+
 /// Intrinsic values of one JSON object, each present or not, in [`INTRINSIC_KEYS`] order.
 type Intrinsics = [Option<f64>; 10];
 
@@ -163,20 +181,40 @@ fn check_camera_model(o: &JsonObject) -> FormatResult<()> {
     }
 }
 
-/// Reads one frame, filling intrinsics it does not give from the top-level `defaults`.
-fn read_frame(f: &JsonObject, defaults: &Intrinsics) -> FormatResult<Frame> {
-    check_camera_model(f)?;
-    let own = read_intrinsics(f)?;
+/// Reads `o`'s camera model and intrinsics, filling those it does not give from `defaults`
+/// (distortion defaults to none); `missing` says where a missing value belongs.
+fn read_camera(o: &JsonObject, defaults: &Intrinsics, missing: &str) -> FormatResult<Pinhole> {
+    check_camera_model(o)?;
+    let own = read_intrinsics(o)?;
     let mut v = [0.0; 10];
     for (i, key) in INTRINSIC_KEYS.iter().enumerate() {
         v[i] = match (own[i], defaults[i], i >= 6) {
             (Some(x), _, _) | (None, Some(x), _) => x,
             (None, None, true) => 0.0,
-            (None, None, false) => {
-                return Err(f.error(key, "missing: give it at the top level or in the frame"));
-            }
+            (None, None, false) => return Err(o.error(key, missing)),
         };
     }
+    Ok(Pinhole {
+        width: v[0] as u32,
+        height: v[1] as u32,
+        fx: v[2],
+        fy: v[3],
+        cx: v[4],
+        cy: v[5],
+        k1: v[6],
+        k2: v[7],
+        p1: v[8],
+        p2: v[9],
+    })
+}
+
+/// Reads one frame, filling intrinsics it does not give from the top-level `defaults`.
+fn read_frame(f: &JsonObject, defaults: &Intrinsics) -> FormatResult<Frame> {
+    let camera = read_camera(
+        f,
+        defaults,
+        "missing: give it at the top level or in the frame",
+    )?;
     let path = |key| {
         f.optional(key, as_nonempty_str)
             .map(|p| p.map(PathBuf::from))
@@ -185,18 +223,7 @@ fn read_frame(f: &JsonObject, defaults: &Intrinsics) -> FormatResult<Frame> {
         image: f.required("file_path", as_nonempty_str)?.into(),
         depth: path("depth_file_path")?,
         instance: path("instance_file_path")?,
-        camera: Pinhole {
-            width: v[0] as u32,
-            height: v[1] as u32,
-            fx: v[2],
-            fy: v[3],
-            cx: v[4],
-            cy: v[5],
-            k1: v[6],
-            k2: v[7],
-            p1: v[8],
-            p2: v[9],
-        },
+        camera,
         camera_to_world: f.required("transform_matrix", as_pose)?,
         light: f.optional("light", as_str)?.map(str::to_string),
         extra: f.unknown_fields(&[&FRAME_KEYS[..], &INTRINSIC_KEYS[..]].concat()),

@@ -1,0 +1,370 @@
+//! What the query camera saw, on the sphere of directions. A panorama sees every direction. A photo
+//! with known intrinsics is warped onto the sphere of a level camera looking along +x (the panorama
+//! frame of FORMAT.md), and sees only its field of view; localization and the object search leave the
+//! rest out, so one pipeline serves both.
+
+use glam::{DMat3, DVec2, DVec3};
+use neuroom_core::camera::{CameraModel, Pinhole};
+use neuroom_core::image::RgbImage;
+
+use crate::features::FeatureMap;
+use crate::plane::{Plane, downsample_rgb};
+use crate::sphere::direction;
+
+/// Rotation from the OpenGL pinhole frame (looks along −z, +y up, +x right) to the panorama frame of
+/// the same camera (+x forward, +y left, +z up). A photo's `camera_to_world` is its panorama frame's
+/// `camera_to_world` times this.
+pub const PANORAMA_FROM_PINHOLE: DMat3 = DMat3::from_cols(
+    DVec3::new(0.0, -1.0, 0.0),
+    DVec3::new(0.0, 0.0, 1.0),
+    DVec3::new(-1.0, 0.0, 0.0),
+);
+
+/// Widest sphere image a photo is warped to (columns); finer photos are sampled bilinearly.
+pub const MAX_PHOTO_SPHERE_WIDTH: usize = 2048;
+
+/// Colours on the equirectangular sphere and which of its pixels the camera saw.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SphereImage {
+    /// Colour per pixel (`width = 2 × height`); meaningless where not seen.
+    pub rgb: RgbImage,
+    /// Pixels the camera saw; `None` for a panorama, which sees them all.
+    pub seen: Option<Vec<bool>>,
+}
+
+impl SphereImage {
+    /// A full panorama.
+    pub fn panorama(rgb: RgbImage) -> Self {
+        Self { rgb, seen: None }
+    }
+
+    /// `photo`, taken by `camera` held level, warped onto its panorama frame at a width that keeps the
+    /// photo's resolution at its centre (at most [`MAX_PHOTO_SPHERE_WIDTH`]).
+    pub fn from_photo(photo: &RgbImage, camera: &Pinhole) -> Self {
+        let natural = (std::f64::consts::TAU * camera.fx.max(camera.fy)).round() as usize;
+        let width = (natural.clamp(64, MAX_PHOTO_SPHERE_WIDTH) / 2) * 2;
+        Self::from_photo_at(photo, camera, width)
+    }
+
+    /// [`SphereImage::from_photo`] at a given width.
+    pub fn from_photo_at(photo: &RgbImage, camera: &Pinhole, width: usize) -> Self {
+        let height = width / 2;
+        let to_pinhole = PANORAMA_FROM_PINHOLE.transpose();
+        let (data, seen): (Vec<[f32; 3]>, Vec<bool>) = (0..width * height)
+            .map(|i| {
+                let d = direction(
+                    (i % width) as f64 + 0.5,
+                    (i / width) as f64 + 0.5,
+                    width,
+                    height,
+                );
+                match camera.project(to_pinhole * d) {
+                    Some((pixel, _)) if camera.in_image(pixel) => (bilinear(photo, pixel), true),
+                    _ => ([0.0; 3], false),
+                }
+            })
+            .unzip();
+        Self {
+            rgb: RgbImage {
+                width: width as u32,
+                height: height as u32,
+                data,
+            },
+            seen: Some(seen),
+        }
+    }
+
+    /// Columns.
+    pub fn width(&self) -> usize {
+        self.rgb.width as usize
+    }
+
+    /// Rows.
+    pub fn height(&self) -> usize {
+        self.rgb.height as usize
+    }
+
+    /// Whether pixel `i` was seen.
+    pub fn sees(&self, i: usize) -> bool {
+        self.seen.as_ref().is_none_or(|s| s[i])
+    }
+
+    /// The image at `width × height` by box averaging over the seen pixels; a pixel is seen when at
+    /// least half of what it averages was.
+    pub fn downsample(&self, width: usize, height: usize) -> SphereImage {
+        let Some(seen) = &self.seen else {
+            return Self::panorama(downsample_rgb(&self.rgb, width, height));
+        };
+        let (sw, sh) = (self.width(), self.height());
+        let mut sum = vec![[0.0f32; 5]; width * height];
+        for v in 0..sh {
+            let tv = (((v as f64 + 0.5) * height as f64 / sh as f64) as usize).min(height - 1);
+            for u in 0..sw {
+                let tu = (((u as f64 + 0.5) * width as f64 / sw as f64) as usize).min(width - 1);
+                let s = &mut sum[tv * width + tu];
+                s[4] += 1.0;
+                if seen[v * sw + u] {
+                    let c = self.rgb.data[v * sw + u];
+                    s[0] += c[0];
+                    s[1] += c[1];
+                    s[2] += c[2];
+                    s[3] += 1.0;
+                }
+            }
+        }
+        let data = sum
+            .iter()
+            .map(|s| std::array::from_fn(|c| s[c] / s[3].max(1.0)))
+            .collect();
+        let small_seen = sum
+            .iter()
+            .map(|s| s[4] > 0.0 && 2.0 * s[3] >= s[4])
+            .collect();
+        SphereImage {
+            rgb: RgbImage {
+                width: width as u32,
+                height: height as u32,
+                data,
+            },
+            seen: Some(small_seen),
+        }
+    }
+
+    /// Illumination-robust features ([`FeatureMap`]) blurred by `sigma`; for a photo, blurred over the
+    /// seen pixels only, so the edge of its field of view makes no edge.
+    pub fn features(&self, sigma: f32) -> FeatureMap {
+        match &self.seen {
+            Some(seen) => FeatureMap::masked(&self.rgb, seen, sigma),
+            None => FeatureMap::new(&self.rgb, sigma),
+        }
+    }
+
+    /// `depth` (one value per pixel, 0 = no surface) with the pixels not seen set to 0, so that fits
+    /// over surfaces (the room's re-shading) use only what was seen.
+    pub fn seen_depth<'a>(&self, depth: &'a [f32]) -> std::borrow::Cow<'a, [f32]> {
+        match &self.seen {
+            None => std::borrow::Cow::Borrowed(depth),
+            Some(seen) => depth
+                .iter()
+                .zip(seen)
+                .map(|(d, s)| if *s { *d } else { 0.0 })
+                .collect(),
+        }
+    }
+
+    /// The seen pixels as a plane of 1 (seen, with every 4-neighbour seen) and 0, for bilinear tests of
+    /// whether a continuous position lies well inside the field of view; `None` for a panorama.
+    pub fn seen_plane(&self) -> Option<Plane> {
+        let seen = self.seen.as_ref()?;
+        let inner = crate::evidence::erode(seen, self.width(), self.height());
+        Some(Plane {
+            width: self.width(),
+            height: self.height(),
+            data: inner.iter().map(|s| f32::from(*s)).collect(),
+        })
+    }
+}
+
+/// The photo `camera` would take from the centre of `panorama`, held level and turned by `heading`
+/// (radians about +z from the panorama's +x), sampled bilinearly: a perspective view with exactly known
+/// intrinsics and pose, for testing and benchmarking photo input on rooms that hold panoramas.
+pub fn photo_from_panorama(panorama: &RgbImage, camera: &Pinhole, heading: f64) -> RgbImage {
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let (pw, ph) = (panorama.width as usize, panorama.height as usize);
+    let turn = DMat3::from_rotation_z(heading) * PANORAMA_FROM_PINHOLE;
+    let data = (0..w * h)
+        .map(|i| {
+            let ray = camera.direction(DVec2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5));
+            let at = crate::sphere::project(turn * ray, pw, ph).unwrap_or(DVec2::ZERO);
+            bilinear_wrapped(panorama, at)
+        })
+        .collect();
+    RgbImage {
+        width: w as u32,
+        height: h as u32,
+        data,
+    }
+}
+
+/// Whether a direction of the panorama frame (as in [`photo_from_panorama`]) falls inside the photo of
+/// `camera` turned by `heading`.
+pub fn photo_sees(camera: &Pinhole, heading: f64, direction: DVec3) -> bool {
+    let turn = DMat3::from_rotation_z(heading) * PANORAMA_FROM_PINHOLE;
+    camera
+        .project(turn.transpose() * direction)
+        .is_some_and(|(pixel, _)| camera.in_image(pixel))
+}
+
+/// Bilinear sample of a panorama at continuous pixel coordinates, columns wrapping round.
+fn bilinear_wrapped(image: &RgbImage, pixel: DVec2) -> [f32; 3] {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let x = (pixel.x - 0.5).rem_euclid(w as f64);
+    let y = (pixel.y - 0.5).clamp(0.0, (h - 1) as f64);
+    let (x0, y0) = (x.floor() as usize % w, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1) % w, (y0 + 1).min(h - 1));
+    let (fx, fy) = ((x - x.floor()) as f32, (y - y0 as f64) as f32);
+    let at = |u: usize, v: usize| image.data[v * w + u];
+    let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
+    std::array::from_fn(|k| {
+        let top = a[k] + fx * (b[k] - a[k]);
+        let bottom = c[k] + fx * (d[k] - c[k]);
+        top + fy * (bottom - top)
+    })
+}
+
+/// Bilinear sample of `image` at continuous pixel coordinates (centres at `i + 0.5`), clamped at the
+/// borders.
+fn bilinear(image: &RgbImage, pixel: DVec2) -> [f32; 3] {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let x = (pixel.x - 0.5).clamp(0.0, (w - 1) as f64);
+    let y = (pixel.y - 0.5).clamp(0.0, (h - 1) as f64);
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
+    let at = |u: usize, v: usize| image.data[v * w + u];
+    let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
+    std::array::from_fn(|k| {
+        let top = a[k] + fx * (b[k] - a[k]);
+        let bottom = c[k] + fx * (d[k] - c[k]);
+        top + fy * (bottom - top)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sphere::project;
+
+    fn ramp_photo(w: usize, h: usize) -> RgbImage {
+        RgbImage {
+            width: w as u32,
+            height: h as u32,
+            data: (0..w * h)
+                .map(|i| [(i % w) as f32 / w as f32, (i / w) as f32 / h as f32, 0.5])
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn the_pinhole_frame_maps_onto_the_panorama_frame() {
+        let r = PANORAMA_FROM_PINHOLE;
+        assert!((r.determinant() - 1.0).abs() < 1e-12);
+        // Forward, right and up of the OpenGL camera.
+        assert!((r * DVec3::NEG_Z).abs_diff_eq(DVec3::X, 1e-12));
+        assert!((r * DVec3::X).abs_diff_eq(DVec3::NEG_Y, 1e-12));
+        assert!((r * DVec3::Y).abs_diff_eq(DVec3::Z, 1e-12));
+    }
+
+    #[test]
+    fn a_photo_lands_where_its_rays_point() {
+        let camera = Pinhole::new(80, 60, 50.0, 50.0, 40.0, 30.0);
+        let photo = ramp_photo(80, 60);
+        let sphere = SphereImage::from_photo_at(&photo, &camera, 512);
+        let seen = sphere.seen.as_ref().unwrap();
+        // Horizontal field of view 2·atan(40/50) = 77.3° of 360°.
+        let fraction_of_row =
+            seen[128 * 512..129 * 512].iter().filter(|s| **s).count() as f64 / 512.0;
+        assert!(
+            (fraction_of_row - 77.32 / 360.0).abs() < 0.01,
+            "{fraction_of_row}"
+        );
+        // The photo's pixel (60.5, 20.5) is seen along its ray; the sphere shows its colour there.
+        let ray = PANORAMA_FROM_PINHOLE * camera.unproject(DVec2::new(60.5, 20.5), 1.0);
+        let at = project(ray, 512, 256).unwrap();
+        let i = at.y as usize * 512 + at.x as usize;
+        assert!(seen[i]);
+        let expected = photo.data[20 * 80 + 60];
+        let got = sphere.rgb.data[i];
+        assert!((got[0] - expected[0]).abs() < 0.02 && (got[1] - expected[1]).abs() < 0.03);
+        // Behind the camera nothing is seen.
+        let back = project(DVec3::NEG_X, 512, 256).unwrap();
+        assert!(!seen[back.y as usize * 512 + back.x as usize]);
+    }
+
+    #[test]
+    fn a_photo_cut_from_a_panorama_warps_back_onto_it() {
+        let (pw, ph) = (256usize, 128usize);
+        let panorama = RgbImage {
+            width: pw as u32,
+            height: ph as u32,
+            data: (0..pw * ph)
+                .map(|i| {
+                    let d = direction((i % pw) as f64 + 0.5, (i / pw) as f64 + 0.5, pw, ph);
+                    [
+                        (0.5 + 0.4 * d.x) as f32,
+                        (0.5 + 0.4 * d.y) as f32,
+                        (0.5 + 0.4 * d.z) as f32,
+                    ]
+                })
+                .collect(),
+        };
+        let camera = Pinhole::new(96, 72, 48.0, 48.0, 48.0, 36.0);
+        let heading = 1.0;
+        let photo = photo_from_panorama(&panorama, &camera, heading);
+        // The photo's centre looks along the heading.
+        let centre = photo.data[36 * 96 + 48];
+        assert!((centre[0] - (0.5 + 0.4 * heading.cos()) as f32).abs() < 0.02);
+        assert!((centre[1] - (0.5 + 0.4 * heading.sin()) as f32).abs() < 0.02);
+        assert!(photo_sees(
+            &camera,
+            heading,
+            DVec3::new(heading.cos(), heading.sin(), 0.1)
+        ));
+        assert!(!photo_sees(
+            &camera,
+            heading,
+            DVec3::new(-heading.cos(), 0.0, 0.0)
+        ));
+        // Back on the sphere of the turned camera, every seen pixel shows the panorama's colour of
+        // its direction turned by the heading.
+        let sphere = SphereImage::from_photo_at(&photo, &camera, pw);
+        let turn = DMat3::from_rotation_z(heading);
+        let mut checked = 0;
+        for (i, c) in sphere.rgb.data.iter().enumerate() {
+            if sphere.sees(i) {
+                let d = turn * direction((i % pw) as f64 + 0.5, (i / pw) as f64 + 0.5, pw, ph);
+                let want = [0.5 + 0.4 * d.x, 0.5 + 0.4 * d.y, 0.5 + 0.4 * d.z];
+                for k in 0..3 {
+                    assert!((c[k] as f64 - want[k]).abs() < 0.03, "{c:?} vs {want:?}");
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+    }
+
+    #[test]
+    fn downsampling_averages_seen_pixels_only() {
+        let mut rgb = RgbImage {
+            width: 8,
+            height: 4,
+            data: vec![[1.0, 0.0, 0.0]; 32],
+        };
+        let mut seen = vec![true; 32];
+        for u in 0..8 {
+            for v in 0..4 {
+                if u % 4 == 0 || (u < 4 && v < 2) {
+                    seen[v * 8 + u] = false;
+                    rgb.data[v * 8 + u] = [0.0, 0.0, 9.0];
+                }
+            }
+        }
+        let image = SphereImage {
+            rgb,
+            seen: Some(seen),
+        };
+        let small = image.downsample(2, 1);
+        // The left half saw 6 of its 16 pixels, the right half 12: only the right one counts as seen,
+        // and neither takes the unseen pixels' colour.
+        assert_eq!(small.seen, Some(vec![false, true]));
+        assert_eq!(small.rgb.data, vec![[1.0, 0.0, 0.0]; 2]);
+        let mostly_unseen = SphereImage {
+            rgb: image.rgb.clone(),
+            seen: Some(vec![false; 32]),
+        };
+        assert_eq!(
+            mostly_unseen.downsample(2, 1).seen,
+            Some(vec![false, false])
+        );
+    }
+}
