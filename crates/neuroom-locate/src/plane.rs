@@ -112,23 +112,38 @@ impl Plane {
     }
 }
 
+/// Calls `visit(target, source)` for every pixel `source` of a `sw × sh` image, with the pixel `target`
+/// of a `width × height` image that holds its centre (both row-major indices): the binning of area
+/// averaging.
+pub(crate) fn for_each_target(
+    sw: usize,
+    sh: usize,
+    width: usize,
+    height: usize,
+    mut visit: impl FnMut(usize, usize),
+) {
+    for v in 0..sh {
+        let tv = (((v as f64 + 0.5) * height as f64 / sh as f64) as usize).min(height - 1);
+        for u in 0..sw {
+            let tu = (((u as f64 + 0.5) * width as f64 / sw as f64) as usize).min(width - 1);
+            visit(tv * width + tu, v * sw + u);
+        }
+    }
+}
+
 /// Area-averaged colour panorama of `width × height` (each source pixel goes to the target pixel that
 /// holds its centre; targets no source pixel reaches take the nearest source pixel).
 pub fn downsample_rgb(image: &RgbImage, width: usize, height: usize) -> RgbImage {
     let (sw, sh) = (image.width as usize, image.height as usize);
     let mut sum = vec![[0.0f32; 4]; width * height];
-    for v in 0..sh {
-        let tv = ((v as f64 + 0.5) * height as f64 / sh as f64) as usize;
-        for u in 0..sw {
-            let tu = ((u as f64 + 0.5) * width as f64 / sw as f64) as usize;
-            let c = image.data[v * sw + u];
-            let s = &mut sum[tv.min(height - 1) * width + tu.min(width - 1)];
-            s[0] += c[0];
-            s[1] += c[1];
-            s[2] += c[2];
-            s[3] += 1.0;
-        }
-    }
+    for_each_target(sw, sh, width, height, |target, source| {
+        let c = image.data[source];
+        let s = &mut sum[target];
+        s[0] += c[0];
+        s[1] += c[1];
+        s[2] += c[2];
+        s[3] += 1.0;
+    });
     let data = sum
         .iter()
         .enumerate()

@@ -8,7 +8,7 @@ use neuroom_core::camera::{CameraModel, Pinhole};
 use neuroom_core::image::RgbImage;
 
 use crate::features::FeatureMap;
-use crate::plane::{Plane, downsample_rgb};
+use crate::plane::{Plane, downsample_rgb, for_each_target};
 use crate::sphere::direction;
 
 /// Rotation from the OpenGL pinhole frame (looks along −z, +y up, +x right) to the panorama frame of
@@ -59,7 +59,9 @@ impl SphereImage {
                     height,
                 );
                 match camera.project(to_pinhole * d) {
-                    Some((pixel, _)) if camera.in_image(pixel) => (bilinear(photo, pixel), true),
+                    Some((pixel, _)) if camera.in_image(pixel) => {
+                        (bilinear(photo, pixel, false), true)
+                    }
                     _ => ([0.0; 3], false),
                 }
             })
@@ -97,21 +99,17 @@ impl SphereImage {
         };
         let (sw, sh) = (self.width(), self.height());
         let mut sum = vec![[0.0f32; 5]; width * height];
-        for v in 0..sh {
-            let tv = (((v as f64 + 0.5) * height as f64 / sh as f64) as usize).min(height - 1);
-            for u in 0..sw {
-                let tu = (((u as f64 + 0.5) * width as f64 / sw as f64) as usize).min(width - 1);
-                let s = &mut sum[tv * width + tu];
-                s[4] += 1.0;
-                if seen[v * sw + u] {
-                    let c = self.rgb.data[v * sw + u];
-                    s[0] += c[0];
-                    s[1] += c[1];
-                    s[2] += c[2];
-                    s[3] += 1.0;
-                }
+        for_each_target(sw, sh, width, height, |target, source| {
+            let s = &mut sum[target];
+            s[4] += 1.0;
+            if seen[source] {
+                let c = self.rgb.data[source];
+                s[0] += c[0];
+                s[1] += c[1];
+                s[2] += c[2];
+                s[3] += 1.0;
             }
-        }
+        });
         let data = sum
             .iter()
             .map(|s| std::array::from_fn(|c| s[c] / s[3].max(1.0)))
@@ -176,7 +174,7 @@ pub fn photo_from_panorama(panorama: &RgbImage, camera: &Pinhole, heading: f64) 
         .map(|i| {
             let ray = camera.direction(DVec2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5));
             let at = crate::sphere::project(turn * ray, pw, ph).unwrap_or(DVec2::ZERO);
-            bilinear_wrapped(panorama, at)
+            bilinear(panorama, at, true)
         })
         .collect();
     RgbImage {
@@ -195,32 +193,24 @@ pub fn photo_sees(camera: &Pinhole, heading: f64, direction: DVec3) -> bool {
         .is_some_and(|(pixel, _)| camera.in_image(pixel))
 }
 
-/// Bilinear sample of a panorama at continuous pixel coordinates, columns wrapping round.
-fn bilinear_wrapped(image: &RgbImage, pixel: DVec2) -> [f32; 3] {
+/// Bilinear sample of `image` at continuous pixel coordinates (centres at `i + 0.5`): rows clamped at
+/// the borders, columns clamped too or, for a panorama (`wrap_columns`), wrapping round.
+fn bilinear(image: &RgbImage, pixel: DVec2, wrap_columns: bool) -> [f32; 3] {
     let (w, h) = (image.width as usize, image.height as usize);
-    let x = (pixel.x - 0.5).rem_euclid(w as f64);
+    let x = if wrap_columns {
+        (pixel.x - 0.5).rem_euclid(w as f64)
+    } else {
+        (pixel.x - 0.5).clamp(0.0, (w - 1) as f64)
+    };
     let y = (pixel.y - 0.5).clamp(0.0, (h - 1) as f64);
     let (x0, y0) = (x.floor() as usize % w, y.floor() as usize);
-    let (x1, y1) = ((x0 + 1) % w, (y0 + 1).min(h - 1));
+    let x1 = if wrap_columns {
+        (x0 + 1) % w
+    } else {
+        (x0 + 1).min(w - 1)
+    };
+    let y1 = (y0 + 1).min(h - 1);
     let (fx, fy) = ((x - x.floor()) as f32, (y - y0 as f64) as f32);
-    let at = |u: usize, v: usize| image.data[v * w + u];
-    let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
-    std::array::from_fn(|k| {
-        let top = a[k] + fx * (b[k] - a[k]);
-        let bottom = c[k] + fx * (d[k] - c[k]);
-        top + fy * (bottom - top)
-    })
-}
-
-/// Bilinear sample of `image` at continuous pixel coordinates (centres at `i + 0.5`), clamped at the
-/// borders.
-fn bilinear(image: &RgbImage, pixel: DVec2) -> [f32; 3] {
-    let (w, h) = (image.width as usize, image.height as usize);
-    let x = (pixel.x - 0.5).clamp(0.0, (w - 1) as f64);
-    let y = (pixel.y - 0.5).clamp(0.0, (h - 1) as f64);
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
     let at = |u: usize, v: usize| image.data[v * w + u];
     let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
     std::array::from_fn(|k| {
