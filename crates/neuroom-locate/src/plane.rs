@@ -131,18 +131,21 @@ pub(crate) fn for_each_target(
     }
 }
 
+/// Adds colour `c` to a running sum `[r, g, b, count]` (the first four slots of `sum`).
+pub(crate) fn add_colour(sum: &mut [f32], c: [f32; 3]) {
+    sum[0] += c[0];
+    sum[1] += c[1];
+    sum[2] += c[2];
+    sum[3] += 1.0;
+}
+
 /// Area-averaged colour panorama of `width × height` (each source pixel goes to the target pixel that
 /// holds its centre; targets no source pixel reaches take the nearest source pixel).
 pub fn downsample_rgb(image: &RgbImage, width: usize, height: usize) -> RgbImage {
     let (sw, sh) = (image.width as usize, image.height as usize);
     let mut sum = vec![[0.0f32; 4]; width * height];
     for_each_target(sw, sh, width, height, |target, source| {
-        let c = image.data[source];
-        let s = &mut sum[target];
-        s[0] += c[0];
-        s[1] += c[1];
-        s[2] += c[2];
-        s[3] += 1.0;
+        add_colour(&mut sum[target], image.data[source]);
     });
     let data = sum
         .iter()

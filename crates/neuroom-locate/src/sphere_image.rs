@@ -8,7 +8,7 @@ use neuroom_core::camera::{CameraModel, Pinhole};
 use neuroom_core::image::RgbImage;
 
 use crate::features::FeatureMap;
-use crate::plane::{Plane, downsample_rgb, for_each_target};
+use crate::plane::{Plane, add_colour, downsample_rgb, for_each_target};
 use crate::sphere::direction;
 
 /// Rotation from the OpenGL pinhole frame (looks along −z, +y up, +x right) to the panorama frame of
@@ -103,11 +103,7 @@ impl SphereImage {
             let s = &mut sum[target];
             s[4] += 1.0;
             if seen[source] {
-                let c = self.rgb.data[source];
-                s[0] += c[0];
-                s[1] += c[1];
-                s[2] += c[2];
-                s[3] += 1.0;
+                add_colour(s, self.rgb.data[source]);
             }
         });
         let data = sum
