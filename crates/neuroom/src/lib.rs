@@ -22,3 +22,5 @@ pub mod train;
 pub mod view;
 
 pub use inspect::{RoomReport, inspect_room};
+/// room.json, for callers that name objects (`neuroom bench locate --objects`).
+pub use neuroom_core::formats::{Room, read_room};

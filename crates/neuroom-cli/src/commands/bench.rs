@@ -80,6 +80,9 @@ struct LocateArgs {
     /// Also merge each panorama's photos as views of one arrangement, scored against all its objects.
     #[arg(long, requires = "photos")]
     merge: bool,
+    /// Also print each true object's IoU, rotation and position errors (or that it was missed).
+    #[arg(long)]
+    objects: bool,
     /// Print one JSON object per panorama and one for the mean, after the text.
     #[arg(long)]
     json: bool,
@@ -297,6 +300,7 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
         ..neuroom_fit::FitConfig::refinement()
     };
     let fit = a.fit.then_some(&fit);
+    let room = a.objects.then(|| neuroom::read_room(&a.room)).transpose()?;
     let mut each = |s: &neuroom::locate::PanoramaScore| {
         if let Some(i) = &s.initial {
             println!(
@@ -319,6 +323,11 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
             s.objects.mean_position_error_cm.unwrap_or(f64::NAN),
             s.seconds
         );
+        if let Some(room) = &room {
+            for line in neuroom::score::object_lines(room, &s.objects) {
+                println!("  {line}");
+            }
+        }
         if a.json {
             println!("{}", serde_json::to_string(s).unwrap_or_default());
         }
