@@ -152,6 +152,8 @@ pub struct Silhouette {
     pub rim: Vec<bool>,
     /// Distance of the nearest point per pixel (metres).
     pub depths: Vec<f32>,
+    /// The nearest point's normal (world frame) per pixel: which light it faces.
+    pub normals: Vec<Vec3>,
 }
 
 /// Cosine between a point's normal and its viewing ray above which it counts as a back face: slightly
@@ -163,6 +165,7 @@ const BACK_FACE_COSINE: f32 = 0.1;
 pub struct ZBuffer {
     depth: Vec<f32>,
     color: Vec<Vec3>,
+    normal: Vec<Vec3>,
     touched: Vec<u32>,
 }
 
@@ -185,10 +188,12 @@ pub fn splat(
     if buffer.depth.len() != width * height {
         buffer.depth = vec![f32::INFINITY; width * height];
         buffer.color = vec![Vec3::ZERO; width * height];
+        buffer.normal = vec![Vec3::ZERO; width * height];
     }
     let rc = camera_to_world.rotation_f32().transpose();
     let m: Mat3 = rc * object_to_world.rotation_f32();
     let b: Vec3 = rc * (object_to_world.translation - camera_to_world.translation).as_vec3();
+    let to_world = object_to_world.rotation_f32();
     let pixel_angle = std::f32::consts::TAU / width as f32;
     for ((x, n), c) in cloud.points.iter().zip(&cloud.normals).zip(&cloud.colors) {
         let p = m * *x + b;
@@ -221,6 +226,7 @@ pub fn splat(
                     }
                     buffer.depth[i] = dist;
                     buffer.color[i] = *c;
+                    buffer.normal[i] = to_world * *n;
                 }
             }
         }
@@ -237,6 +243,7 @@ pub fn splat(
         out.colors.push(buffer.color[i]);
         out.rim.push(rim);
         out.depths.push(buffer.depth[i]);
+        out.normals.push(buffer.normal[i]);
     }
     for &i in &buffer.touched {
         buffer.depth[i as usize] = f32::INFINITY;
@@ -291,6 +298,7 @@ fn fill_gaps(
         if buffer.depth[j].is_infinite() {
             buffer.depth[j] = buffer.depth[source];
             buffer.color[j] = buffer.color[source];
+            buffer.normal[j] = buffer.normal[source];
             buffer.touched.push(j as u32);
         }
     }

@@ -3,8 +3,9 @@
 //! Hypotheses per model follow where the model may stand: on the floor (a grid of positions whose box
 //! centre projects into a detection × a ring of headings), against a wall (the empty room's surface
 //! behind a detected pixel, facing along its normal), or on top of an object already placed. Each is
-//! projected ([`crate::cloud::splat`]) and scored, pixel by pixel, by how much better its colours (after
-//! a per-channel gain: the light changed) explain the panorama than the empty room's colours do. The best hypothesis over all models is taken, refined
+//! projected ([`crate::cloud::splat`]) and scored, pixel by pixel, by how much better its colours (under
+//! a fitted tone: a per-channel gain and a directional shading, for the light changed) explain the
+//! panorama than the empty room's colours do. The best hypothesis over all models is taken, refined
 //! by coordinate descent and put into the scene: its pixels then count with its own colour error and
 //! distance (a later object must explain them better to stand in front, and is hidden behind it), and
 //! its box is taken (later objects may not stand inside it); the search goes on until no hypothesis
@@ -13,7 +14,7 @@
 //! in the scene of all the others, and a model left out gets its place back from the objects standing
 //! in it when that explains the whole panorama better.
 
-use glam::{DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec3};
 use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
@@ -100,6 +101,10 @@ pub struct SearchConfig {
     /// an object; without this, a picture or a box fitted to the glow explains it better than the room.
     /// `None`: never.
     pub glow_gain: Option<f64>,
+    /// Largest brightening (relative, beyond its gain) of an object's surfaces that face the light's
+    /// direction, and darkening of those facing away: a lamp above or beside an object lights its faces
+    /// unevenly, in a way the captures' light did not (0: one gain for every face).
+    pub directional_shading: f64,
 }
 
 impl Default for SearchConfig {
@@ -124,6 +129,7 @@ impl Default for SearchConfig {
             contact_tolerance: 0.1,
             max_overlap: 0.1,
             glow_gain: Some(1.2),
+            directional_shading: 0.6,
         }
     }
 }
@@ -204,11 +210,17 @@ impl Placed {
     ) {
         let mut buf = ZBuffer::default();
         let sil = silhouette(target, &model.fine, pose, &self.depth, &mut buf);
-        let (_, gain) = score(target, self, &sil, config);
-        for ((&p, &c), &d) in sil.pixels.iter().zip(&sil.colors).zip(&sil.depths) {
+        let (_, tone) = score(target, self, &sil, config);
+        for (((&p, &c), &d), &u) in sil
+            .pixels
+            .iter()
+            .zip(&sil.colors)
+            .zip(&sil.depths)
+            .zip(&sil.normals)
+        {
             let p = p as usize;
             if target.view.sees(p) {
-                self.error[p] = object_error(target, p, c, &gain, 1.0) as f32;
+                self.error[p] = object_error(target, p, tone.colour(c, u), 1.0) as f32;
             }
             self.depth[p] = d;
             self.room_front[p] = false;
@@ -566,25 +578,26 @@ fn silhouette<F>(
 }
 
 /// How well a silhouette explains the panorama: (score, pixels it explains better than the scene
-/// so far, their fraction of its visible pixels), and the object's colour gain. The score is the sum
-/// over its visible pixels of the scene's colour error there (the empty room's, or a placed object's it
-/// would stand in front of) minus the object's, its colours scaled by a per-channel gain fitted to
-/// those pixels (the light changed).
+/// so far, their fraction of its visible pixels), and the object's tone. The score is the sum over its
+/// visible pixels of the scene's colour error there (the empty room's, or a placed object's it would
+/// stand in front of) minus the object's, its colours under the [`Tone`] fitted to those pixels (the
+/// light changed).
 fn score<F>(
     target: &Target<F>,
     placed: &Placed,
     sil: &Silhouette,
     config: &SearchConfig,
-) -> ((f64, usize, f64), [f64; 3]) {
+) -> ((f64, usize, f64), Tone) {
     // A rim pixel is modelled as a mix of the object and the room behind it. What the camera did not
     // see (outside a photo's field of view) neither supports nor refutes a hypothesis.
-    let visible: Vec<(usize, Vec3, f64)> = sil
+    let (pixels, samples): (Vec<usize>, Vec<ToneSample>) = sil
         .pixels
         .iter()
         .zip(&sil.colors)
         .zip(&sil.rim)
-        .filter(|((p, _), _)| target.view.sees(**p as usize))
-        .map(|((p, c), rim)| {
+        .zip(&sil.normals)
+        .filter(|(((p, _), _), _)| target.view.sees(**p as usize))
+        .map(|(((p, c), rim), n)| {
             let p = *p as usize;
             let known = target.view.empty_depth[p] > 0.0;
             let cover = if *rim && known {
@@ -592,40 +605,116 @@ fn score<F>(
             } else {
                 1.0
             };
-            (p, *c, cover)
+            let sample = ToneSample {
+                query: target.view.query.data[p],
+                room: target.room_color[p],
+                learnt: *c,
+                cover,
+                normal: *n,
+            };
+            (p, sample)
         })
-        .collect();
-    if visible.is_empty() {
-        return ((0.0, 0, 0.0), [1.0; 3]);
+        .unzip();
+    if pixels.is_empty() {
+        return ((0.0, 0, 0.0), Tone::NEUTRAL);
     }
-    let (mut num, mut den) = ([0.0f64; 3], [0.0f64; 3]);
-    for &(p, c, a) in &visible {
-        let (q, r) = (target.view.query.data[p], target.room_color[p]);
-        for k in 0..3 {
-            num[k] += a * c[k] as f64 * (q[k] as f64 - (1.0 - a) * r[k] as f64);
-            den[k] += a * a * (c[k] * c[k]) as f64;
-        }
-    }
-    let gain = limited_gain(std::array::from_fn(|k| num[k] / den[k].max(1e-9)), config);
+    let tone = fit_tone(&samples, config);
     let room_gain = config.glow_gain.and_then(|least| {
         let g = local_room_gain(target, placed, sil, config);
         (g[0] * g[1] * g[2] >= least.powi(3)).then_some(g)
     });
     let (mut total, mut wins) = (0.0f64, 0usize);
-    for &(p, c, a) in &visible {
+    for (&p, s) in pixels.iter().zip(&samples) {
         let baseline = match &room_gain {
             Some(g) if placed.room_front[p] && target.view.empty_depth[p] > 0.0 => {
                 (placed.error[p] as f64).min(room_error_under(target, p, g))
             }
             _ => placed.error[p] as f64,
         };
-        let d = baseline - object_error(target, p, c, &gain, a);
+        let d = baseline - object_error(target, p, tone.colour(s.learnt, s.normal), s.cover);
         total += d;
         if d > 0.0 {
             wins += 1;
         }
     }
-    ((total, wins, wins as f64 / visible.len() as f64), gain)
+    ((total, wins, wins as f64 / pixels.len() as f64), tone)
+}
+
+/// How an object's learnt colours look under the panorama's light: a per-channel gain (the light's
+/// colour and level), and a first-order directional term (faces turned to the light are brighter).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Tone {
+    gain: [f64; 3],
+    /// Relative brightening of a face per unit of its normal along this vector.
+    light: DVec3,
+}
+
+impl Tone {
+    const NEUTRAL: Tone = Tone {
+        gain: [1.0; 3],
+        light: DVec3::ZERO,
+    };
+
+    /// The colour a point of learnt colour `c` with world normal `n` shows.
+    fn colour(&self, c: Vec3, n: Vec3) -> [f64; 3] {
+        let shade = 1.0 + self.light.dot(n.as_dvec3());
+        std::array::from_fn(|k| self.gain[k] * shade * c[k] as f64)
+    }
+}
+
+/// One visible pixel of a silhouette, for [`fit_tone`].
+struct ToneSample {
+    /// The panorama's colour.
+    query: [f32; 3],
+    /// The empty room's colour (behind a rim pixel's uncovered part).
+    room: [f32; 3],
+    /// The object's learnt colour.
+    learnt: Vec3,
+    /// Fraction of the pixel the object covers.
+    cover: f64,
+    /// The object's normal there (world frame).
+    normal: Vec3,
+}
+
+/// The [`Tone`] (within the search's limits) that best explains `samples`: the gain by least squares,
+/// then the directional term given that gain (damped, so that directions the normals do not span stay
+/// unlit).
+fn fit_tone(samples: &[ToneSample], config: &SearchConfig) -> Tone {
+    let (mut num, mut den) = ([0.0f64; 3], [0.0f64; 3]);
+    for s in samples {
+        for k in 0..3 {
+            let c = s.learnt[k] as f64;
+            num[k] += s.cover * c * (s.query[k] as f64 - (1.0 - s.cover) * s.room[k] as f64);
+            den[k] += s.cover * s.cover * c * c;
+        }
+    }
+    let gain = limited_gain(std::array::from_fn(|k| num[k] / den[k].max(1e-9)), config);
+    if config.directional_shading <= 0.0 {
+        return Tone {
+            gain,
+            light: DVec3::ZERO,
+        };
+    }
+    let (mut ata, mut atb) = (DMat3::ZERO, DVec3::ZERO);
+    for s in samples {
+        for (k, g) in gain.iter().enumerate() {
+            let lit = s.cover * g * s.learnt[k] as f64;
+            let rest = s.query[k] as f64 - (1.0 - s.cover) * s.room[k] as f64 - lit;
+            let row = s.normal.as_dvec3() * lit;
+            ata += DMat3::from_cols(row * row.x, row * row.y, row * row.z);
+            atb += row * rest;
+        }
+    }
+    let damping = 1e-3 * (ata.x_axis.x + ata.y_axis.y + ata.z_axis.z) + 1e-9;
+    let light = (ata + DMat3::from_diagonal(DVec3::splat(damping))).inverse() * atb;
+    Tone {
+        gain,
+        light: if light.is_finite() {
+            light.clamp_length_max(config.directional_shading)
+        } else {
+            DVec3::ZERO
+        },
+    }
 }
 
 /// How far (pixels of the working view) outside a silhouette's rim the room's local gain is measured.
@@ -702,13 +791,13 @@ fn limited_gain(gain: [f64; 3], config: &SearchConfig) -> [f64; 3] {
     gain.map(|g| level * (g / level).clamp(1.0 / config.max_chroma, config.max_chroma))
 }
 
-/// The colour error at pixel `p` of an object with colour `c` under `gain` covering the fraction
-/// `cover` of the pixel (the empty room's colour fills the rest).
-fn object_error<F>(target: &Target<F>, p: usize, c: Vec3, gain: &[f64; 3], cover: f64) -> f64 {
+/// The colour error at pixel `p` of an object showing colour `c` covering the fraction `cover` of the
+/// pixel (the empty room's colour fills the rest).
+fn object_error<F>(target: &Target<F>, p: usize, c: [f64; 3], cover: f64) -> f64 {
     let (q, r) = (target.view.query.data[p], target.room_color[p]);
     (0..3)
         .map(|k| {
-            let predicted = cover * gain[k] * c[k] as f64 + (1.0 - cover) * r[k] as f64;
+            let predicted = cover * c[k] + (1.0 - cover) * r[k] as f64;
             (q[k] as f64 - predicted).abs()
         })
         .sum::<f64>()
@@ -800,6 +889,13 @@ fn greedy<F: Field>(
             continue;
         };
         let model = &models[m];
+        if std::env::var("TRACE").is_ok() {
+            eprintln!(
+                "PLACE m{m} {:?} y{:.0} {s:.2} {tp}",
+                pose.translation,
+                pose.yaw().to_degrees()
+            );
+        }
         placed.add(target, model, &pose, config);
         let id = free_id(model, &found);
         used[m] += 1;
@@ -1183,6 +1279,62 @@ mod tests {
             placement: Placement::Floor,
             against_wall: false,
         }
+    }
+
+    /// Samples of a box's three visible faces (up, and two sides) whose learnt colours the panorama
+    /// shows under `gain`, the top `top` times and the side facing +x `side` times brighter.
+    fn shaded_faces(gain: [f64; 3], top: f64, side: f64) -> Vec<ToneSample> {
+        let faces = [(Vec3::Z, top), (Vec3::X, side), (Vec3::Y, 1.0)];
+        let learnt = [
+            Vec3::new(0.6, 0.4, 0.3),
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(0.2, 0.3, 0.6),
+        ];
+        let mut out = Vec::new();
+        for (normal, shade) in faces {
+            for c in learnt {
+                out.push(ToneSample {
+                    query: std::array::from_fn(|k| (gain[k] * shade * c[k] as f64) as f32),
+                    room: [0.9; 3],
+                    learnt: c,
+                    cover: 1.0,
+                    normal,
+                });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_tone_finds_the_light_colour_and_which_faces_it_lights() {
+        let config = SearchConfig::default();
+        let gain = [1.2, 1.0, 0.9];
+        // The side facing +y keeps the learnt shade: the gain is its, tops are 1.3×, +x sides 0.8×.
+        let samples = shaded_faces(gain, 1.3, 0.8);
+        let tone = fit_tone(&samples, &config);
+        for s in &samples {
+            let shown = tone.colour(s.learnt, s.normal);
+            for k in 0..3 {
+                assert!(
+                    (shown[k] - s.query[k] as f64).abs() < 0.03,
+                    "{shown:?} against {:?} ({tone:?})",
+                    s.query
+                );
+            }
+        }
+        assert!(tone.light.z > 0.1 && tone.light.x < -0.1, "{tone:?}");
+        // Without the directional term, one gain must serve every face.
+        let flat = fit_tone(
+            &samples,
+            &SearchConfig {
+                directional_shading: 0.0,
+                ..config.clone()
+            },
+        );
+        assert_eq!(flat.light, DVec3::ZERO);
+        // An implausibly strong direction is held to the limit.
+        let strong = fit_tone(&shaded_faces(gain, 4.0, 0.1), &config);
+        assert!(strong.light.length() <= config.directional_shading + 1e-9);
     }
 
     #[test]
