@@ -889,13 +889,6 @@ fn greedy<F: Field>(
             continue;
         };
         let model = &models[m];
-        if std::env::var("TRACE").is_ok() {
-            eprintln!(
-                "PLACE m{m} {:?} y{:.0} {s:.2} {tp}",
-                pose.translation,
-                pose.yaw().to_degrees()
-            );
-        }
         placed.add(target, model, &pose, config);
         let id = free_id(model, &found);
         used[m] += 1;
