@@ -86,6 +86,10 @@ pub struct SearchConfig {
     pub min_pixels: usize,
     /// Least fraction of its visible pixels it must explain better than the empty room.
     pub min_precision: f64,
+    /// Least mean gain in colour error over its visible pixels (mean absolute sRGB): an object must
+    /// explain what it covers clearly better than the empty room, not a large patch of floor or wall
+    /// a little better (a light's glow the room's re-shading leaves, or noise).
+    pub min_contrast: f64,
     /// Depth tolerance of the empty room's occlusion (metres).
     pub occlusion_tolerance: f32,
     /// Fraction of a silhouette's rim pixel taken to be covered by the object.
@@ -124,6 +128,7 @@ impl Default for SearchConfig {
             min_score: 1.0,
             min_pixels: 25,
             min_precision: 0.5,
+            min_contrast: 0.015,
             occlusion_tolerance: 0.1,
             rim_coverage: 0.5,
             contact_tolerance: 0.1,
@@ -1132,7 +1137,12 @@ fn room_misfit<F: Field>(room: &F, model: &ObjectModel, pose: &Pose) -> f32 {
 }
 
 fn accepted(s: &(f64, usize, f64), config: &SearchConfig) -> bool {
-    s.0 >= config.min_score && s.1 >= config.min_pixels && s.2 >= config.min_precision
+    let (score, wins, precision) = *s;
+    let visible = wins as f64 / precision.max(1e-9);
+    score >= config.min_score
+        && wins >= config.min_pixels
+        && precision >= config.min_precision
+        && score >= config.min_contrast * visible
 }
 
 /// `mask` grown by `n` pixels.
@@ -1328,6 +1338,19 @@ mod tests {
         // An implausibly strong direction is held to the limit.
         let strong = fit_tone(&shaded_faces(gain, 4.0, 0.1), &config);
         assert!(strong.light.length() <= config.directional_shading + 1e-9);
+    }
+
+    #[test]
+    fn an_object_must_explain_what_it_covers_clearly_better_than_the_room() {
+        let config = SearchConfig::default();
+        // 1000 visible pixels, 950 of them better: a nightstand on the floor, gaining 0.012 per pixel
+        // on average where the lamp's glow falls, against a true one gaining 0.025 on 220 pixels.
+        assert!(!accepted(&(12.0, 950, 0.95), &config));
+        assert!(accepted(&(5.5, 176, 0.8), &config));
+        // The other limits still hold: too few pixels, too small a fraction of them, too low a score.
+        assert!(!accepted(&(5.5, 20, 0.8), &config));
+        assert!(!accepted(&(5.5, 176, 0.4), &config));
+        assert!(!accepted(&(0.5, 26, 0.9), &config));
     }
 
     #[test]
