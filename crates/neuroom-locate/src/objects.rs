@@ -360,6 +360,24 @@ pub fn pose_score<F: Field>(
     hypothesis_score(&target, &placed, model, false, pose, &mut buf, config)
 }
 
+/// The search's objective for the objects `found` placed in `input`: the panorama's summed colour error
+/// with them in front of the empty room (lower is better). Compared between the arrangement the search
+/// found and the true one, it tells a search that missed a better arrangement from a colour model that
+/// prefers a wrong one.
+pub fn arrangement_error<F: Field>(
+    input: &SearchInput<F>,
+    found: &[Found],
+    config: &SearchConfig,
+) -> f64 {
+    let models = relit_models(input);
+    let input = SearchInput {
+        models: &models,
+        ..*input
+    };
+    let target = Target::new(&input, config);
+    scene_error(&target, &models, found, config)
+}
+
 /// Finds the objects of `input` and their initial poses.
 pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> Vec<Found> {
     let models = relit_models(input);

@@ -9,7 +9,8 @@ use neuroom_field::{AnalyticColor, AnalyticField, CodeSet};
 use neuroom_locate::cloud::surface_cloud;
 use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View};
 use neuroom_locate::objects::{
-    ObjectModel, Placement, SearchConfig, SearchInput, find_objects, pose_score,
+    Found, ObjectModel, Placement, SearchConfig, SearchInput, arrangement_error, find_objects,
+    pose_score,
 };
 use neuroom_locate::{
     Database, DatabaseConfig, LocalizeConfig, PANORAMA_FROM_PINHOLE, SphereImage, build_database,
@@ -365,6 +366,29 @@ fn the_true_pose_scores_above_a_turned_or_shifted_one() {
         let s = score(&other);
         assert!(s.0 < best.0, "{s:?} ≥ {best:?}");
     }
+}
+
+#[test]
+fn the_true_arrangement_explains_the_panorama_better_than_a_shifted_one_or_none() {
+    let scene = PlacedBox::new();
+    let input = scene.input();
+    let config = SearchConfig::default();
+    let at = |pose: &Pose| Found {
+        model: 0,
+        id: 1,
+        object_to_world: pose.to_rows(),
+        score: 0.0,
+        explained: 0,
+    };
+    let truth = scene.truth;
+    let shifted = Pose::from_yaw_translation(0.5, truth.translation + DVec3::new(0.0, 0.3, 0.0));
+    let true_error = arrangement_error(&input, &[at(&truth)], &config);
+    let none = arrangement_error(&input, &[], &config);
+    let off = arrangement_error(&input, &[at(&shifted)], &config);
+    assert!(
+        true_error < off && true_error < none,
+        "{true_error} {off} {none}"
+    );
 }
 
 /// A 90° × 74° photo of `scene` from a level camera whose panorama frame is `camera` (looking along its

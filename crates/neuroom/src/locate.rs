@@ -21,7 +21,7 @@ use neuroom_locate::cloud::{FreeSpace, carve, surface_cloud};
 use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View};
 use neuroom_locate::merge::merge_views;
 use neuroom_locate::objects::{
-    Found, ObjectModel, Placement, SearchConfig, SearchInput, find_objects,
+    Found, ObjectModel, Placement, SearchConfig, SearchInput, arrangement_error, find_objects,
 };
 use neuroom_locate::plane::blur_rgb;
 use neuroom_locate::shading::match_shading;
@@ -670,8 +670,60 @@ pub struct PanoramaScore {
     pub initial: Option<ArrangementScore>,
     /// Seconds for the whole panorama (camera + objects, and the fit when it ran).
     pub seconds: f64,
+    /// The object search's objective at the initial poses it found and at the true poses, when
+    /// measured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objective: Option<SearchObjective>,
     /// Details.
     pub located: Located,
+}
+
+/// The object search's objective ([`neuroom_locate::objects::arrangement_error`], lower is better) at
+/// the arrangement it found and at the true one, both seen from the found camera. When the truth scores
+/// lower, the search missed it; when higher, its colour model prefers the wrong arrangement.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+pub struct SearchObjective {
+    /// At the initial poses found.
+    pub found: f64,
+    /// At the true poses.
+    pub truth: f64,
+}
+
+/// [`SearchObjective`] of `located` (found in `query`) against the arrangement `truth`.
+fn search_objective(
+    ctx: &LocateContext,
+    query: &QueryImage,
+    located: &Located,
+    truth: &Arrangement,
+    config: &LocateConfig,
+) -> SearchObjective {
+    let camera = located.camera.pose();
+    let view = object_view(ctx, &query.sphere(), &camera, config);
+    let input = SearchInput {
+        empty: &ctx.scene,
+        view: &view,
+        camera_to_world: camera,
+        detections: &[],
+        models: &ctx.objects,
+    };
+    let true_found: Vec<Found> = truth
+        .objects
+        .iter()
+        .filter_map(|o| {
+            let model = ctx.objects.iter().position(|m| m.ids.contains(&o.id))?;
+            Some(Found {
+                model,
+                id: o.id,
+                object_to_world: o.object_to_world.to_rows(),
+                score: 0.0,
+                explained: 0,
+            })
+        })
+        .collect();
+    SearchObjective {
+        found: arrangement_error(&input, &located.found, &config.search),
+        truth: arrangement_error(&input, &true_found, &config.search),
+    }
 }
 
 /// Means over the test panoramas.
@@ -742,6 +794,8 @@ pub fn bench_locate(
             _ => initial,
         };
         let seconds = start.elapsed().as_secs_f64();
+        let query = QueryImage::Panorama(image);
+        let objective = search_objective(&ctx, &query, &located, &truth, config);
         let score = PanoramaScore {
             panorama: name,
             camera_position_error_cm: 100.0
@@ -756,6 +810,7 @@ pub fn bench_locate(
             objects: crate::score::score_in_room(&ctx.room, &truth, &arrangement),
             initial: initial_score,
             seconds,
+            objective: Some(objective),
             located,
         };
         each(&score);

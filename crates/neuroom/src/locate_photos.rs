@@ -141,6 +141,7 @@ pub fn bench_locate_photos(
                 objects: crate::score::score_in_room(&ctx.room, &truth_shown, &found_shown),
                 initial: None,
                 seconds,
+                objective: None,
                 located,
             };
             each(&score);

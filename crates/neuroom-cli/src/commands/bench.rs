@@ -80,7 +80,8 @@ struct LocateArgs {
     /// Also merge each panorama's photos as views of one arrangement, scored against all its objects.
     #[arg(long, requires = "photos")]
     merge: bool,
-    /// Also print each true object's IoU, rotation and position errors (or that it was missed).
+    /// Also print each true object's IoU, rotation and position errors (or that it was missed), and
+    /// the object search's objective at the found and at the true poses.
     #[arg(long)]
     objects: bool,
     /// Print one JSON object per panorama and one for the mean, after the text.
@@ -326,6 +327,17 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
         if let Some(room) = &room {
             for line in neuroom::score::object_lines(room, &s.objects) {
                 println!("  {line}");
+            }
+            if let Some(o) = &s.objective {
+                let verdict = if o.truth < o.found {
+                    "the truth explains the panorama better: the search missed it"
+                } else {
+                    "the found poses explain the panorama at least as well as the truth"
+                };
+                println!(
+                    "  search objective (colour error): found {:.1}, truth {:.1}; {verdict}",
+                    o.found, o.truth
+                );
             }
         }
         if a.json {
