@@ -1078,9 +1078,8 @@ fn exchange<F: Field>(
                 score: s,
                 explained: tp,
             });
-            let candidate = greedy(target, models, pool.to_vec(), start, config);
-            let candidate = revisit(target, models, pool, candidate, config);
-            let candidate_scene = placed_scene(target, models, &candidate, config);
+            let (candidate, candidate_scene) =
+                search_on(target, models, pool.to_vec(), pool, start, config);
             let gain = scene.error_gain(&candidate_scene);
             if scene.clearly_better(&candidate_scene, config)
                 && best.as_ref().is_none_or(|(g, ..)| gain > *g)
@@ -1093,6 +1092,22 @@ fn exchange<F: Field>(
         }
     }
     found
+}
+
+/// The search from the objects `start` holds: placements from `hypotheses` while one explains enough,
+/// then a pass over every object (with the whole `pool`); the objects and their scene.
+fn search_on<F: Field>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    hypotheses: Vec<Hypothesis>,
+    pool: &[Hypothesis],
+    start: Vec<Found>,
+    config: &SearchConfig,
+) -> (Vec<Found>, Placed) {
+    let found = greedy(target, models, hypotheses, start, config);
+    let found = revisit(target, models, pool, found, config);
+    let scene = placed_scene(target, models, &found, config);
+    (found, scene)
 }
 
 /// Each placed object in turn is taken out (with what stood on it) and the search goes on without it
@@ -1118,9 +1133,7 @@ fn take_outs<F: Field>(
         let rest = without_orphans(models, rest);
         let mut elsewhere = pool.to_vec();
         suppress_near(&mut elsewhere, taken_out.model, at, config);
-        let candidate = greedy(target, models, elsewhere, rest, config);
-        let candidate = revisit(target, models, pool, candidate, config);
-        let candidate_scene = placed_scene(target, models, &candidate, config);
+        let (candidate, candidate_scene) = search_on(target, models, elsewhere, pool, rest, config);
         if scene.clearly_better(&candidate_scene, config) {
             (found, scene) = (candidate, candidate_scene);
         }
