@@ -198,10 +198,14 @@ impl Placed {
         self.boxes.iter().any(|b| rests_on(b, model, pose))
     }
 
+    /// The panorama's colour error summed over its pixels (of the nearest surface at each).
+    fn total_error(&self) -> f64 {
+        self.error.iter().map(|&e| e as f64).sum()
+    }
+
     /// How much lower the panorama's summed colour error is in `other` than here.
     fn error_gain(&self, other: &Placed) -> f64 {
-        let sum = |p: &Placed| p.error.iter().map(|&e| e as f64).sum::<f64>();
-        sum(self) - sum(other)
+        self.total_error() - other.total_error()
     }
 
     /// Pixels whose nearest surface differs between this scene and `other`.
@@ -1028,8 +1032,7 @@ fn scene_error<F>(
     found: &[Found],
     config: &SearchConfig,
 ) -> f64 {
-    let placed = placed_scene(target, models, found, config);
-    placed.error.iter().map(|&e| e as f64).sum()
+    placed_scene(target, models, found, config).total_error()
 }
 
 /// A model left out (fewer placed than its instances) may have lost its place to a wrong object placed
