@@ -14,6 +14,8 @@
 //! in the scene of all the others, and a model left out gets its place back from the objects standing
 //! in it when that explains the whole panorama better.
 
+use std::collections::HashMap;
+
 use glam::{DMat3, DVec3, Vec3};
 use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
@@ -64,6 +66,10 @@ pub struct SearchConfig {
     pub headings: usize,
     /// Hypotheses kept per model after non-maximum suppression.
     pub keep: usize,
+    /// Besides those, hypotheses kept per model in each detected region (the best there, whose box axis
+    /// projects into it): a small far object scores below many poses of the same model on larger
+    /// objects, and would otherwise have no hypothesis where it stands.
+    pub keep_per_region: usize,
     /// Least distance between kept hypotheses of one model (metres).
     pub suppression: f32,
     /// Largest gain between an object's learnt colours and the panorama (and its inverse), overall.
@@ -117,6 +123,7 @@ impl Default for SearchConfig {
             grid: 0.15,
             headings: 12,
             keep: 30,
+            keep_per_region: 2,
             suppression: 0.3,
             max_gain: 2.5,
             max_chroma: 1.25,
@@ -157,7 +164,7 @@ pub struct Found {
 /// How far (metres) an object standing on another may be from resting on its top face.
 const SUPPORT_TOLERANCE: f64 = 0.05;
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 struct Hypothesis {
     model: usize,
     pose: Pose,
@@ -322,6 +329,8 @@ struct Target<'a, F> {
     room: &'a F,
     camera: Pose,
     allowed: Vec<Vec<bool>>,
+    /// The detection each pixel lies in (the first listed; `None` outside every detection).
+    region: Vec<Option<u32>>,
     tolerance: f32,
     /// The empty room's colour per pixel under the query's global gain ([`crate::evidence::relit`]).
     room_color: Vec<[f32; 3]>,
@@ -343,8 +352,10 @@ impl<'a, F: Field> Target<'a, F> {
         let room_color = relit_room(view);
         let n = view.width() * view.height();
         let mut allowed = vec![vec![false; n]; models];
-        for d in detections {
+        let mut region = vec![None; n];
+        for (r, d) in detections.iter().enumerate() {
             for &p in &d.pixels {
+                region[p as usize].get_or_insert(r as u32);
                 for (m, a) in allowed.iter_mut().enumerate() {
                     if d.model.is_none_or(|k| k == m) {
                         a[p as usize] = true;
@@ -360,6 +371,7 @@ impl<'a, F: Field> Target<'a, F> {
                 .iter()
                 .map(|a| dilate_n(a, view.width(), view.height(), config.allowed_margin))
                 .collect(),
+            region,
             tolerance: config.occlusion_tolerance,
             room_error: room_color
                 .iter()
@@ -508,19 +520,35 @@ fn world_point<F>(target: &Target<F>, pixel: usize) -> Option<DVec3> {
     })
 }
 
-/// Whether a point of the vertical axis of `model`'s box at `pose` (its centre, or a quarter or half
-/// of its height above or below) projects into a pixel where model `m` may be: the centre of an open
-/// object (a desk, a chair) may show the floor or wall through it.
-fn axis_allowed<F>(target: &Target<F>, m: usize, model: &ObjectModel, pose: &Pose) -> bool {
+/// The pixels that points of the vertical axis of `model`'s box at `pose` project to (its centre, and a
+/// quarter or a half of its height above and below): the centre of an open object (a desk, a chair) may
+/// show the floor or wall through it.
+fn axis_pixels<'t, F>(
+    target: &'t Target<F>,
+    model: &ObjectModel,
+    pose: &Pose,
+) -> impl Iterator<Item = usize> + 't {
     let (w, h) = (target.view.width(), target.view.height());
     let to_camera = target.camera.inverse();
-    [0.0, 0.5, -0.5, 0.9, -0.9].iter().any(|f| {
-        let point = pose.translation + DVec3::Z * (f * model.half.z as f64);
-        crate::sphere::project(to_camera.transform_point(point), w, h).is_some_and(|pix| {
-            let (u, v) = (pix.x as usize % w, (pix.y as usize).min(h - 1));
-            target.allowed[m][v * w + u]
+    let (centre, half) = (pose.translation, model.half.z as f64);
+    [0.0, 0.5, -0.5, 0.9, -0.9]
+        .into_iter()
+        .filter_map(move |f| {
+            let point = centre + DVec3::Z * (f * half);
+            crate::sphere::project(to_camera.transform_point(point), w, h)
+                .map(|pix| (pix.y as usize).min(h - 1) * w + pix.x as usize % w)
         })
-    })
+}
+
+/// Whether `model` at `pose` stands where model `m` may be: a point of its axis projects into a pixel
+/// the detections allow for it.
+fn axis_allowed<F>(target: &Target<F>, m: usize, model: &ObjectModel, pose: &Pose) -> bool {
+    axis_pixels(target, model, pose).any(|p| target.allowed[m][p])
+}
+
+/// The detected region `model` at `pose` stands in: the first its axis projects into.
+fn axis_region<F>(target: &Target<F>, model: &ObjectModel, pose: &Pose) -> Option<u32> {
+    axis_pixels(target, model, pose).find_map(|p| target.region[p])
 }
 
 fn floor_hypotheses<F>(
@@ -605,8 +633,8 @@ fn wall_hypotheses<F: Field>(target: &Target<F>, m: usize, model: &ObjectModel) 
     out
 }
 
-/// Scores hypotheses in the empty room and keeps the best few of each
-/// model at distinct positions.
+/// Scores hypotheses in the empty room and keeps the best few of each model at distinct positions
+/// ([`keep_best`]).
 fn prune<F: Field>(
     target: &Target<F>,
     models: &[ObjectModel],
@@ -614,35 +642,61 @@ fn prune<F: Field>(
     config: &SearchConfig,
 ) -> Vec<Hypothesis> {
     let placed = Placed::nothing(target);
-    let mut scored: Vec<(f64, Hypothesis)> = hyps
+    let scored: Vec<Scored> = hyps
         .into_par_iter()
         .map_init(ZBuffer::default, |buf, h| {
-            let s = hypothesis_score(
-                target,
-                &placed,
-                &models[h.model],
-                true,
-                &h.pose,
-                buf,
-                config,
-            );
-            (s.0, h)
+            let model = &models[h.model];
+            let s = hypothesis_score(target, &placed, model, true, &h.pose, buf, config);
+            Scored {
+                score: s.0,
+                hypothesis: h,
+                region: axis_region(target, model, &h.pose),
+            }
         })
         .collect();
-    scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let mut kept: Vec<Hypothesis> = Vec::new();
-    for (s, h) in scored {
-        if kept.len() >= config.keep || s <= 0.0 {
+    keep_best(scored, config)
+}
+
+/// A hypothesis with its score in the empty room and the detected region it stands in.
+struct Scored {
+    score: f64,
+    hypothesis: Hypothesis,
+    region: Option<u32>,
+}
+
+/// Of one model's scored hypotheses, the best [`SearchConfig::keep`] and, in each detected region,
+/// the best [`SearchConfig::keep_per_region`] (counting those already kept), no two within the
+/// suppression distance; hypotheses that explain nothing are dropped.
+fn keep_best(mut scored: Vec<Scored>, config: &SearchConfig) -> Vec<Hypothesis> {
+    scored.retain(|s| s.score > 0.0);
+    scored.sort_by(|a, b| b.score.total_cmp(&a.score));
+    let far_from = |kept: &[&Scored], h: &Scored| {
+        let at = h.hypothesis.pose.translation;
+        kept.iter()
+            .all(|k| k.hypothesis.pose.translation.distance(at) > config.suppression as f64)
+    };
+    let mut kept: Vec<&Scored> = Vec::new();
+    for h in &scored {
+        if kept.len() >= config.keep {
             break;
         }
-        let far = kept
-            .iter()
-            .all(|k| k.pose.translation.distance(h.pose.translation) > config.suppression as f64);
-        if far {
+        if far_from(&kept, h) {
             kept.push(h);
         }
     }
-    kept
+    let mut in_region: HashMap<u32, usize> = HashMap::new();
+    for r in kept.iter().filter_map(|k| k.region) {
+        *in_region.entry(r).or_default() += 1;
+    }
+    for h in &scored {
+        let Some(r) = h.region else { continue };
+        let n = in_region.entry(r).or_default();
+        if *n < config.keep_per_region && far_from(&kept, h) {
+            *n += 1;
+            kept.push(h);
+        }
+    }
+    kept.into_iter().map(|k| k.hypothesis).collect()
 }
 
 /// What `cloud` at `pose` shows in front of the scene's surfaces at `depth`.
@@ -1195,7 +1249,7 @@ fn revisit<F: Field>(
         starts.extend(
             contenders(target, &placed, models, &own, config)
                 .into_iter()
-                .map(|i| own[i].clone()),
+                .map(|i| own[i]),
         );
         let best = starts
             .par_iter()
@@ -1443,6 +1497,39 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn a_small_object_keeps_hypotheses_in_its_own_region() {
+        let config = SearchConfig {
+            keep: 3,
+            keep_per_region: 1,
+            ..SearchConfig::default()
+        };
+        let at = |x: f64, score: f64, region: Option<u32>| Scored {
+            score,
+            hypothesis: Hypothesis {
+                model: 0,
+                pose: Pose::from_yaw_translation(0.0, DVec3::new(x, 0.0, 0.0)),
+            },
+            region,
+        };
+        // Many strong poses on a large object (region 0), a weak one on a small far object (region 1),
+        // one outside every region and one that explains nothing (region 2).
+        let mut scored: Vec<Scored> = (0..10)
+            .map(|i| at(i as f64, 50.0 - i as f64, Some(0)))
+            .collect();
+        scored.extend([
+            at(20.0, 4.0, Some(1)),
+            at(21.0, 3.0, Some(1)),
+            at(30.0, 5.0, None),
+        ]);
+        scored.push(at(40.0, -1.0, Some(2)));
+        let kept: Vec<f64> = keep_best(scored, &config)
+            .iter()
+            .map(|h| h.pose.translation.x)
+            .collect();
+        assert_eq!(kept, vec![0.0, 1.0, 2.0, 20.0]);
     }
 
     #[test]
