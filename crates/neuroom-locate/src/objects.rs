@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cloud::{Cloud, Silhouette, ZBuffer, splat};
 use crate::evidence::{Detection, View, colour_error, dilate, relit, relit_room, room_gains};
-use crate::sphere::direction;
+use crate::sphere::{direction, neighbours};
 
 /// Where a model may stand.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -329,7 +329,8 @@ struct Target<'a, F> {
     room: &'a F,
     camera: Pose,
     allowed: Vec<Vec<bool>>,
-    /// The detection each pixel lies in (the first listed; `None` outside every detection).
+    /// The detection each pixel lies in (the first listed, grown as `allowed`; `None` outside every
+    /// detection).
     region: Vec<Option<u32>>,
     tolerance: f32,
     /// The empty room's colour per pixel under the query's global gain ([`crate::evidence::relit`]).
@@ -371,7 +372,7 @@ impl<'a, F: Field> Target<'a, F> {
                 .iter()
                 .map(|a| dilate_n(a, view.width(), view.height(), config.allowed_margin))
                 .collect(),
-            region,
+            region: grow_regions(region, view.width(), view.height(), config.allowed_margin),
             tolerance: config.occlusion_tolerance,
             room_error: room_color
                 .iter()
@@ -1341,6 +1342,15 @@ fn dilate_n(mask: &[bool], w: usize, h: usize, n: usize) -> Vec<bool> {
     (0..n).fold(mask.to_vec(), |m, _| dilate(&m, w, h))
 }
 
+/// Grows labelled regions into unlabelled neighbouring pixels, `n` pixels (as [`dilate_n`]).
+fn grow_regions(region: Vec<Option<u32>>, w: usize, h: usize, n: usize) -> Vec<Option<u32>> {
+    (0..n).fold(region, |r, _| {
+        (0..w * h)
+            .map(|i| r[i].or_else(|| neighbours(i, w, h).find_map(|j| r[j])))
+            .collect()
+    })
+}
+
 /// Hypotheses of the models that stand on `supporter`, on its top face.
 fn support_hypotheses<F: Field>(
     target: &Target<F>,
@@ -1530,6 +1540,25 @@ mod tests {
             .map(|h| h.pose.translation.x)
             .collect();
         assert_eq!(kept, vec![0.0, 1.0, 2.0, 20.0]);
+    }
+
+    #[test]
+    fn regions_grow_into_unlabelled_neighbours_across_the_seam() {
+        // 4 × 3 pixels: region 7 at column 0 of the middle row, region 2 at column 2 of it.
+        let mut region = vec![None; 12];
+        region[4] = Some(7);
+        region[6] = Some(2);
+        let grown = grow_regions(region, 4, 3, 1);
+        // Column 3 is beside column 0 across the seam (and beside column 2): the first-listed
+        // neighbour wins there; a pixel already labelled keeps its label.
+        assert_eq!(grown[4], Some(7));
+        assert_eq!(grown[0], Some(7));
+        assert_eq!(grown[8], Some(7));
+        assert_eq!(grown[6], Some(2));
+        assert_eq!(grown[2], Some(2));
+        assert!(grown[7].is_some() && grown[5].is_some());
+        assert_eq!(grown[1], None);
+        assert_eq!(grown[3], None);
     }
 
     #[test]
