@@ -6,7 +6,6 @@
 //! than its model has instances.
 
 use neuroom_core::obb::OrientedBox;
-use neuroom_core::pose::Pose;
 
 use crate::objects::{Found, ObjectModel, SearchConfig, stands_inside};
 
@@ -30,21 +29,17 @@ pub fn merge_views(
     let mut boxes: Vec<OrientedBox> = Vec::new();
     for found in all {
         let model = &models[found.model];
-        let pose = Pose::from_rows_unchecked(&found.object_to_world);
+        let pose = found.pose();
         let reach = (SAME_OBJECT_FRACTION * 2.0 * model.half.x.max(model.half.y) as f64)
             .max(SAME_OBJECT_MIN_DISTANCE);
         let repeats = taken.iter().any(|t| {
-            t.model == found.model
-                && Pose::from_rows_unchecked(&t.object_to_world)
-                    .translation
-                    .distance(pose.translation)
-                    < reach
+            t.model == found.model && t.pose().translation.distance(pose.translation) < reach
         });
         let instances = taken.iter().filter(|t| t.model == found.model).count();
         if repeats || instances >= model.ids.len() || stands_inside(&boxes, model, &pose, config) {
             continue;
         }
-        boxes.push(OrientedBox::new(pose, 2.0 * model.half.as_dvec3()));
+        boxes.push(model.box_at(&pose));
         taken.push(Found {
             id: model.ids[instances],
             ..found.clone()
@@ -59,6 +54,7 @@ mod tests {
     use crate::cloud::Cloud;
     use crate::objects::Placement;
     use glam::{DVec3, Vec3};
+    use neuroom_core::pose::Pose;
 
     fn model(ids: Vec<u16>, half: Vec3) -> ObjectModel {
         ObjectModel {

@@ -57,6 +57,13 @@ pub struct ObjectModel {
     pub against_wall: bool,
 }
 
+impl ObjectModel {
+    /// Its box at `pose`.
+    pub fn box_at(&self, pose: &Pose) -> OrientedBox {
+        OrientedBox::new(*pose, 2.0 * self.half.as_dvec3())
+    }
+}
+
 /// Search settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SearchConfig {
@@ -161,6 +168,13 @@ pub struct Found {
     pub explained: usize,
 }
 
+impl Found {
+    /// Its pose (`object_to_world`).
+    pub fn pose(&self) -> Pose {
+        Pose::from_rows_unchecked(&self.object_to_world)
+    }
+}
+
 /// How far (metres) an object standing on another may be from resting on its top face.
 const SUPPORT_TOLERANCE: f64 = 0.05;
 
@@ -258,8 +272,7 @@ impl Placed {
             self.depth[p] = d;
             self.room_front[p] = false;
         }
-        self.boxes
-            .push(OrientedBox::new(*pose, 2.0 * model.half.as_dvec3()));
+        self.boxes.push(model.box_at(pose));
     }
 }
 
@@ -277,33 +290,20 @@ fn rests_on(base: &OrientedBox, model: &ObjectModel, pose: &Pose) -> bool {
 /// that model holds them up any more: taking a supporter out of the scene takes out what stood on it,
 /// rather than leaving it in the air.
 fn without_orphans(models: &[ObjectModel], mut found: Vec<Found>) -> Vec<Found> {
-    loop {
-        let boxes: Vec<(usize, OrientedBox)> = found
-            .iter()
-            .map(|f| {
-                let pose = Pose::from_rows_unchecked(&f.object_to_world);
-                (
-                    f.model,
-                    OrientedBox::new(pose, 2.0 * models[f.model].half.as_dvec3()),
-                )
-            })
-            .collect();
-        let orphan = found.iter().position(|f| {
-            let Placement::On(supporter) = models[f.model].placement else {
-                return false;
-            };
-            let pose = Pose::from_rows_unchecked(&f.object_to_world);
-            !boxes
-                .iter()
-                .any(|(m, b)| *m == supporter && rests_on(b, &models[f.model], &pose))
-        });
-        match orphan {
-            Some(k) => {
-                found.remove(k);
-            }
-            None => return found,
-        }
+    let held_up = |f: &Found, found: &[Found]| {
+        let Placement::On(supporter) = models[f.model].placement else {
+            return true;
+        };
+        let pose = f.pose();
+        found.iter().any(|s| {
+            s.model == supporter
+                && rests_on(&models[s.model].box_at(&s.pose()), &models[f.model], &pose)
+        })
+    };
+    while let Some(k) = found.iter().position(|f| !held_up(f, &found)) {
+        found.remove(k);
     }
+    found
 }
 
 /// Whether `model` at `pose` would stand inside one of `boxes` ([`Placed::collides`]).
@@ -996,7 +996,7 @@ fn greedy<F: Field>(
     let mut used = vec![0usize; models.len()];
     for f in &found {
         used[f.model] += 1;
-        let at = Pose::from_rows_unchecked(&f.object_to_world).translation;
+        let at = f.pose().translation;
         suppress_near(&mut pool, f.model, at, config);
     }
     loop {
@@ -1063,7 +1063,7 @@ fn placed_scene<F>(
 ) -> Placed {
     let mut placed = Placed::nothing(target);
     for f in found {
-        let pose = Pose::from_rows_unchecked(&f.object_to_world);
+        let pose = f.pose();
         placed.add(target, &models[f.model], &pose, config);
     }
     placed
@@ -1119,10 +1119,10 @@ fn exchange<F: Field>(
                 .collect();
         let mut best: Option<(f64, Vec<Found>, Placed)> = None;
         for (pose, (s, tp, _)) in starts {
-            let newcomer = [OrientedBox::new(pose, 2.0 * model.half.as_dvec3())];
+            let newcomer = [model.box_at(&pose)];
             let (kept, taken_out): (Vec<Found>, Vec<Found>) =
                 found.iter().cloned().partition(|f| {
-                    let at = Pose::from_rows_unchecked(&f.object_to_world);
+                    let at = f.pose();
                     !stands_inside(&newcomer, &models[f.model], &at, config)
                 });
             if taken_out.is_empty() {
@@ -1185,7 +1185,7 @@ fn take_outs<F: Field>(
         let Some(taken_out) = found.get(k) else {
             break;
         };
-        let at = Pose::from_rows_unchecked(&taken_out.object_to_world).translation;
+        let at = taken_out.pose().translation;
         let mut rest = found.clone();
         rest.remove(k);
         let rest = without_orphans(models, rest);
@@ -1217,7 +1217,7 @@ fn revisit<F: Field>(
         let placed = placed_scene(target, models, &others, config);
         let m = found[k].model;
         let model = &models[m];
-        let current = Pose::from_rows_unchecked(&found[k].object_to_world);
+        let current = found[k].pose();
         // A wall object keeps facing out of its wall.
         let turns: &[f64] = if model.placement == Placement::Wall {
             &[0.0]
@@ -1238,7 +1238,7 @@ fn revisit<F: Field>(
         if let Placement::On(supporter) = model.placement {
             for (j, f) in found.iter().enumerate() {
                 if j != k && f.model == supporter {
-                    let at = Pose::from_rows_unchecked(&f.object_to_world);
+                    let at = f.pose();
                     own.extend(
                         support_hypotheses(target, models, supporter, &at, config)
                             .into_iter()
