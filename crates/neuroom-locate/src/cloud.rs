@@ -28,27 +28,37 @@ pub struct Cloud {
 
 /// The surface of `field` inside the box of half extents `half`, sampled at `spacing`, coloured with
 /// code rows `codes`.
+///
+/// Every face is approached from outside: the grid reaches one spacing beyond the box, and points up
+/// to one spacing outside a surface are snapped onto it. A thin panel on the box's boundary (a desk's
+/// end) is otherwise reached only by grid points inside it, whose gradient a learnt SDF may turn
+/// towards the panel's inner face: its points then face inwards, and seen from outside it vanishes.
+/// Points the snap takes out of the box are dropped: they belong to surfaces outside it (floaters).
 pub fn surface_cloud<F: Field>(field: &F, half: Vec3, spacing: f32, codes: CodeSet) -> Cloud {
-    let n = (2.0 * half / spacing).ceil().max(Vec3::ONE);
+    let reach = half + spacing;
+    let n = (2.0 * reach / spacing).ceil().max(Vec3::ONE);
     let (nx, ny, nz) = (n.x as usize, n.y as usize, n.z as usize);
     let grid: Vec<Vec3> = (0..nx * ny * nz)
         .map(|i| {
             let (x, y, z) = (i % nx, (i / nx) % ny, i / (nx * ny));
-            -half + spacing * (Vec3::new(x as f32, y as f32, z as f32) + 0.5)
+            -reach + spacing * (Vec3::new(x as f32, y as f32, z as f32) + 0.5)
         })
         .collect();
     let mut sdf = vec![0.0; grid.len()];
     let mut grad = vec![Vec3::ZERO; grid.len()];
     field.sdf_gradient(&grid, &mut sdf, &mut grad);
+    let inside = half + SNAP_TOLERANCE * spacing;
     let (points, normals): (Vec<Vec3>, Vec<Vec3>) = grid
         .iter()
         .zip(&sdf)
         .zip(&grad)
-        .filter(|((_, s), g)| s.abs() < 0.75 * spacing && g.length_squared() > 1e-8)
+        .filter(|((_, s), g)| (-0.75 * spacing..spacing).contains(*s) && g.length_squared() > 1e-8)
         .map(|((p, s), g)| {
             let n = g.normalize();
-            ((*p - *s * n).clamp(-half, half), n)
+            (*p - *s * n, n)
         })
+        .filter(|(p, _)| p.abs().cmple(inside).all())
+        .map(|(p, n)| (p.clamp(-half, half), n))
         .unzip();
     let dirs: Vec<Vec3> = normals.iter().map(|n| -*n).collect();
     let mut out = FieldOutput::default();
@@ -73,6 +83,9 @@ pub fn surface_cloud<F: Field>(field: &F, half: Vec3, spacing: f32, codes: CodeS
         spacing,
     }
 }
+
+/// How far (in grid spacings) beyond the box a snapped point may lie and still be kept (on the box).
+const SNAP_TOLERANCE: f32 = 0.25;
 
 /// What one capture frame knows of a model's free space: along the ray of each pixel, no surface of
 /// the model lies nearer than `free` (metres from the camera centre; infinite where the frame saw the
@@ -326,6 +339,28 @@ mod tests {
             assert!((p.abs().max_element() - 0.25).abs() < 0.02, "{p}");
             assert!((c.x - 0.8).abs() < 1e-5);
         }
+    }
+
+    #[test]
+    fn a_thin_panel_on_the_box_boundary_faces_outwards() {
+        // A 1 cm panel on the −x face of the box, thinner than the grid: grid points inside the box
+        // reach only its inner face.
+        let panel = AnalyticField::Cuboid {
+            centre: Vec3::new(-0.245, 0.0, 0.0),
+            half: Vec3::new(0.005, 0.2, 0.2),
+            color: AnalyticColor::Constant(Vec3::new(0.2, 0.6, 0.2)),
+        };
+        let cloud = surface_cloud(&panel, Vec3::splat(0.25), 0.05, CodeSet::default());
+        let outer = cloud
+            .points
+            .iter()
+            .zip(&cloud.normals)
+            .filter(|(p, n)| (p.x + 0.25).abs() < 0.01 && n.x < -0.9)
+            .count();
+        assert!(outer > 20, "{outer} points on the outer face");
+        // Seen from the −x side, it shows.
+        let seen = splat_two_metres_ahead(&cloud, 256, 128);
+        assert!(seen.pixels.len() > 40, "{} pixels", seen.pixels.len());
     }
 
     /// A frame on the −x side looking along +x at a wall 1 m ahead, with a square hole through which it

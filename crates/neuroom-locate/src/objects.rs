@@ -1301,7 +1301,8 @@ fn hypothesis_score<F: Field>(
 
 /// How far `model` at `pose` is from standing as the room allows (metres): the depth by which its box
 /// corners enter the room's surfaces (beyond a small tolerance), plus, when it stands against a wall, the
-/// distance of its back from the wall.
+/// larger distance of the two ends of its back from the wall: its back lies along the wall, not one
+/// point of it near a wall and the rest turned away.
 fn room_misfit<F: Field>(room: &F, model: &ObjectModel, pose: &Pose) -> f32 {
     let h = model.half.as_dvec3();
     let mut points: Vec<Vec3> = (0..8)
@@ -1312,21 +1313,21 @@ fn room_misfit<F: Field>(room: &F, model: &ObjectModel, pose: &Pose) -> f32 {
         })
         .collect();
     if model.against_wall {
-        points.push(
-            pose.transform_point(DVec3::new(-h.x - 0.02, 0.0, 0.0))
-                .as_vec3(),
-        );
+        for side in [-1.0, 1.0] {
+            let end = DVec3::new(-h.x - 0.02, side * BACK_ENDS * h.y, 0.0);
+            points.push(pose.transform_point(end).as_vec3());
+        }
     }
     let mut sdf = vec![0.0f32; points.len()];
     room.sdf(&points, &mut sdf);
     let inside: f32 = sdf[..8].iter().map(|d| (-d - 0.03).max(0.0)).sum();
-    let back = if model.against_wall {
-        sdf[8].abs()
-    } else {
-        0.0
-    };
+    let back = sdf[8..].iter().fold(0.0f32, |m, d| m.max(d.abs()));
     inside + back
 }
+
+/// Where the ends of an object's back are taken, as a fraction of its half width (inside its corners,
+/// which a wall's baseboard keeps a little off the wall).
+const BACK_ENDS: f64 = 0.8;
 
 fn accepted(s: &(f64, usize, f64), config: &SearchConfig) -> bool {
     let (score, wins, precision) = *s;
@@ -1689,5 +1690,28 @@ mod tests {
         assert!(now.clearly_better(&scene(0.03, 400), &config));
         assert!(!now.clearly_better(&scene(0.06, 400), &config));
         assert_eq!(now.changed(&scene(0.03, 400)), 400);
+    }
+
+    #[test]
+    fn an_object_against_a_wall_lies_along_it() {
+        // A 4 m × 3.7 m room; a shelf (36 cm deep, 80 cm wide) whose back faces +y.
+        let room = neuroom_field::AnalyticField::RoomShell {
+            centre: Vec3::new(1.975, 1.85, 1.3),
+            half: Vec3::new(1.975, 1.85, 1.3),
+            color: neuroom_field::AnalyticColor::Constant(Vec3::splat(0.5)),
+        };
+        let shelf = ObjectModel {
+            against_wall: true,
+            ..model(Vec3::new(0.18, 0.4, 0.75))
+        };
+        let at = |yaw_deg: f64, x: f64, y: f64| {
+            Pose::from_yaw_translation(yaw_deg.to_radians(), DVec3::new(x, y, 0.75))
+        };
+        // Back flush to the wall y = 3.7 (its −x side turned to +y).
+        assert!(room_misfit(&room, &shelf, &at(-90.0, 2.0, 3.5)) < 0.02);
+        // Turned 35° off that wall in the corner: the middle of its back is 19 cm from the wall, one
+        // end touches it and the other stands 37 cm off.
+        let turned = room_misfit(&room, &shelf, &at(-55.0, 3.55, 3.36));
+        assert!(turned > 0.3, "{turned}");
     }
 }
