@@ -1616,10 +1616,7 @@ mod tests {
             error: Vec::new(),
             depth: Vec::new(),
             room_front: Vec::new(),
-            boxes: vec![OrientedBox::new(
-                Pose::from_yaw_translation(0.3, DVec3::new(1.0, 1.0, 0.25)),
-                2.0 * table.half.as_dvec3(),
-            )],
+            boxes: vec![table.box_at(&Pose::from_yaw_translation(0.3, DVec3::new(1.0, 1.0, 0.25)))],
         };
         let config = SearchConfig::default();
         let on_top = Pose::from_yaw_translation(1.0, DVec3::new(1.1, 0.9, 0.65));

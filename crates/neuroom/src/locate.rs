@@ -479,7 +479,7 @@ fn arrangement_of(
                 .find(|o| o.id == f.id)
                 .map(|o| o.name.clone())
                 .unwrap_or_default(),
-            object_to_world: Pose::from_rows_unchecked(&f.object_to_world),
+            object_to_world: f.pose(),
             extra: Default::default(),
         })
         .collect();

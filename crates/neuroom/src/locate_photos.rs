@@ -183,7 +183,7 @@ fn merged_score(
         .map(|f| ArrangedObject {
             id: f.id,
             name: String::new(),
-            object_to_world: Pose::from_rows_unchecked(&f.object_to_world),
+            object_to_world: f.pose(),
             extra: Default::default(),
         })
         .collect();
