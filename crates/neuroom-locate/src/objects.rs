@@ -1217,22 +1217,9 @@ fn revisit<F: Field>(
         let placed = placed_scene(target, models, &others, config);
         let m = found[k].model;
         let model = &models[m];
-        let current = found[k].pose();
-        // A wall object keeps facing out of its wall.
-        let turns: &[f64] = if model.placement == Placement::Wall {
-            &[0.0]
-        } else {
-            &[0.0, 0.5, 1.0, 1.5]
-        };
-        let mut starts: Vec<Hypothesis> = turns
-            .iter()
-            .map(|turn| Hypothesis {
-                model: m,
-                pose: Pose::from_yaw_translation(
-                    current.yaw() + turn * std::f64::consts::PI,
-                    current.translation,
-                ),
-            })
+        let mut starts: Vec<Hypothesis> = revisit_starts(model, &found[k].pose())
+            .into_iter()
+            .map(|pose| Hypothesis { model: m, pose })
             .collect();
         let mut own: Vec<Hypothesis> = pool.iter().filter(|h| h.model == m).cloned().collect();
         if let Placement::On(supporter) = model.placement {
@@ -1275,6 +1262,33 @@ fn revisit<F: Field>(
     }
     found
 }
+
+/// Where [`revisit`] searches an object's pose again from where it stands at `current`: there, and turned
+/// by a quarter, a half and three quarters of a turn (a box seen from one side looks alike turned so),
+/// and by [`REVISIT_SMALL_TURN`] either way: the descent of [`refine`] turns 15° at most per step and
+/// only one coordinate at a time, so an object left a little turned and shifted can stay there. A wall
+/// object keeps facing out of its wall.
+fn revisit_starts(model: &ObjectModel, current: &Pose) -> Vec<Pose> {
+    let turns: &[f64] = if model.placement == Placement::Wall {
+        &[0.0]
+    } else {
+        &[0.0, -REVISIT_SMALL_TURN, REVISIT_SMALL_TURN, 0.5, 1.0, 1.5]
+    };
+    turns
+        .iter()
+        .map(|turn| {
+            Pose::from_yaw_translation(
+                current.yaw() + turn * std::f64::consts::PI,
+                current.translation,
+            )
+        })
+        .collect()
+}
+
+/// The small turn either way [`revisit`] also starts from, in half turns: 18°. On bedroom a0_l1 a chair
+/// left 12° turned and 7 cm off (scoring 125) reaches its true pose (scoring 241) from 10–40° either way;
+/// with these starts the bedroom preset's IoU went from 76.7 to 79.3 %.
+const REVISIT_SMALL_TURN: f64 = 0.1;
 
 /// [`score`] of `model` at `pose` (coarse or fine cloud), discounted by its [`room_misfit`].
 #[allow(clippy::too_many_arguments)]
@@ -1688,6 +1702,26 @@ mod tests {
         assert!(now.clearly_better(&scene(0.03, 400), &config));
         assert!(!now.clearly_better(&scene(0.06, 400), &config));
         assert_eq!(now.changed(&scene(0.03, 400)), 400);
+    }
+
+    #[test]
+    fn a_revisit_also_starts_a_little_turned_either_way_except_on_a_wall() {
+        let current = Pose::from_yaw_translation(0.3, DVec3::new(1.0, 2.0, 0.4));
+        let mut standing = model(Vec3::new(0.3, 0.3, 0.4));
+        let yaws = |m: &ObjectModel| -> Vec<f64> {
+            revisit_starts(m, &current)
+                .iter()
+                .map(|p| {
+                    assert_eq!(p.translation, current.translation);
+                    (p.yaw() - 0.3).to_degrees().rem_euclid(360.0).round()
+                })
+                .collect()
+        };
+        let mut turns = yaws(&standing);
+        turns.sort_by(f64::total_cmp);
+        assert_eq!(turns, vec![0.0, 18.0, 90.0, 180.0, 270.0, 342.0]);
+        standing.placement = Placement::Wall;
+        assert_eq!(yaws(&standing), vec![0.0]);
     }
 
     #[test]
