@@ -1,5 +1,6 @@
 //! The metrics of FORMAT.md: box IoU, rotation (ARE) and position (APE) errors, identification precision
-//! and recall for a whole arrangement, and PSNR / SSIM for images.
+//! and recall for a whole arrangement, and PSNR / SSIM for images; beside ARE, the rotation error up to
+//! the turns an object's shape does not show (a vase has no heading to find).
 
 use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
@@ -18,6 +19,40 @@ pub fn iou_percent(gt: &OrientedBox, predicted: &OrientedBox) -> f64 {
 pub fn rotation_error_deg(r_gt: DMat3, r: DMat3) -> f64 {
     let trace: f64 = (0..3).map(|i| r_gt.col(i).dot(r.col(i))).sum();
     ((trace - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+/// Which turns about an object's up axis (+z of its canonical frame) leave its shape unchanged: headings
+/// that differ by such a turn look alike, so no image can tell them apart.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Symmetry {
+    /// Only the full turn: every heading shows.
+    #[default]
+    None,
+    /// Every multiple of a full turn / n, n ≥ 2 (a four-legged table: 2; a square stool: 4).
+    Turns(u32),
+    /// Every turn (a body of revolution: a round lamp, a vase).
+    Continuous,
+}
+
+/// The geodesic rotation error up to `symmetry`, degrees: the least [`rotation_error_deg`] between `r`
+/// and `r_gt` composed with any turn of the symmetry about the object's up axis. For a continuous
+/// symmetry that is the angle between the two up axes.
+pub fn rotation_error_up_to_symmetry_deg(r_gt: DMat3, r: DMat3, symmetry: Symmetry) -> f64 {
+    match symmetry {
+        Symmetry::None => rotation_error_deg(r_gt, r),
+        Symmetry::Turns(n) => (0..n.max(1))
+            .map(|k| {
+                let turn = std::f64::consts::TAU * f64::from(k) / f64::from(n);
+                rotation_error_deg(r_gt * DMat3::from_rotation_z(turn), r)
+            })
+            .fold(f64::INFINITY, f64::min),
+        Symmetry::Continuous => r_gt
+            .z_axis
+            .dot(r.z_axis)
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees(),
+    }
 }
 
 /// Difference of the headings about +z (of each rotated +x axis, the object's front), degrees in [0, 180].
@@ -44,6 +79,8 @@ pub struct GtObject {
     pub size: DVec3,
     /// Its true pose.
     pub object_to_world: Pose,
+    /// The turns its shape does not show (see [`rotation_error_up_to_symmetry_deg`]).
+    pub symmetry: Symmetry,
 }
 
 /// A predicted object of a panorama, for [`evaluate_arrangement`].
@@ -67,6 +104,9 @@ pub struct ObjectScore {
     pub iou_percent: f64,
     /// Geodesic rotation error, degrees; `None` when missed.
     pub rotation_error_deg: Option<f64>,
+    /// The rotation error up to the object's shape symmetry, degrees; `None` when missed.
+    #[serde(default)]
+    pub rotation_error_up_to_symmetry_deg: Option<f64>,
     /// Heading error about +z, degrees; `None` when missed.
     pub yaw_error_deg: Option<f64>,
     /// Centre distance, centimetres; `None` when missed.
@@ -82,6 +122,9 @@ pub struct ArrangementScore {
     pub mean_iou_percent: Option<f64>,
     /// Mean rotation error over the found objects (ARE), degrees; `None` when none was found.
     pub mean_rotation_error_deg: Option<f64>,
+    /// Mean rotation error up to each object's shape symmetry over the found objects, degrees.
+    #[serde(default)]
+    pub mean_rotation_error_up_to_symmetry_deg: Option<f64>,
     /// Mean heading error over the found objects, degrees; `None` when none was found.
     pub mean_yaw_error_deg: Option<f64>,
     /// Mean centre distance over the found objects (APE), centimetres; `None` when none was found.
@@ -138,6 +181,7 @@ fn score_object(gt: &GtObject, predicted: Option<&PredictedObject>) -> ObjectSco
             predicted_id: None,
             iou_percent: 0.0,
             rotation_error_deg: None,
+            rotation_error_up_to_symmetry_deg: None,
             yaw_error_deg: None,
             position_error_cm: None,
         };
@@ -151,6 +195,11 @@ fn score_object(gt: &GtObject, predicted: Option<&PredictedObject>) -> ObjectSco
             &OrientedBox::new(p.object_to_world, gt.size),
         ),
         rotation_error_deg: Some(rotation_error_deg(r_gt, r)),
+        rotation_error_up_to_symmetry_deg: Some(rotation_error_up_to_symmetry_deg(
+            r_gt,
+            r,
+            gt.symmetry,
+        )),
         yaw_error_deg: Some(yaw_error_deg(r_gt, r)),
         position_error_cm: Some(position_error_cm(
             gt.object_to_world.translation,
@@ -171,6 +220,12 @@ fn summarize(objects: Vec<ObjectScore>, predicted_count: usize) -> ArrangementSc
             objects
                 .iter()
                 .filter_map(|o| o.rotation_error_deg)
+                .collect(),
+        ),
+        mean_rotation_error_up_to_symmetry_deg: mean(
+            objects
+                .iter()
+                .filter_map(|o| o.rotation_error_up_to_symmetry_deg)
                 .collect(),
         ),
         mean_yaw_error_deg: mean(objects.iter().filter_map(|o| o.yaw_error_deg).collect()),
@@ -422,6 +477,51 @@ mod tests {
             model: model.into(),
             size: DVec3::new(1.0, 0.5, 1.0),
             object_to_world: p,
+            symmetry: Symmetry::None,
+        }
+    }
+
+    #[test]
+    fn rotation_error_up_to_symmetry_leaves_out_the_turns_the_shape_does_not_show() {
+        let turn = |deg: f64| DMat3::from_rotation_z(deg.to_radians());
+        let tilt = DMat3::from_rotation_x(0.1);
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        // No symmetry: the plain geodesic error.
+        assert!(close(
+            rotation_error_up_to_symmetry_deg(turn(30.0), turn(200.0), Symmetry::None),
+            170.0
+        ));
+        // A half-turn symmetry folds 170° onto 10°, and leaves a 60° error at 60°.
+        let half = Symmetry::Turns(2);
+        assert!(close(
+            rotation_error_up_to_symmetry_deg(turn(30.0), turn(200.0), half),
+            10.0
+        ));
+        assert!(close(
+            rotation_error_up_to_symmetry_deg(turn(0.0), turn(60.0), half),
+            60.0
+        ));
+        // Four turns: 100° is 10° from the nearest quarter turn.
+        assert!(close(
+            rotation_error_up_to_symmetry_deg(turn(0.0), turn(100.0), Symmetry::Turns(4)),
+            10.0
+        ));
+        // A body of revolution has no heading: any turn costs nothing, a tilt still does.
+        assert!(close(
+            rotation_error_up_to_symmetry_deg(turn(10.0), turn(137.0), Symmetry::Continuous),
+            0.0
+        ));
+        assert!(close(
+            rotation_error_up_to_symmetry_deg(turn(10.0), turn(137.0) * tilt, Symmetry::Continuous),
+            0.1f64.to_degrees()
+        ));
+        // Never more than the plain error.
+        let (a, b) = (turn(25.0) * tilt, turn(-80.0));
+        for symmetry in [Symmetry::Turns(2), Symmetry::Turns(3), Symmetry::Continuous] {
+            assert!(
+                rotation_error_up_to_symmetry_deg(a, b, symmetry)
+                    <= rotation_error_deg(a, b) + 1e-9
+            );
         }
     }
 

@@ -10,7 +10,9 @@ use crate::relations::{Hint, RoomBox};
 use glam::{DMat3, DVec3, Vec3};
 use neuroom_core::Pose;
 use neuroom_core::image::RgbImage;
-use neuroom_core::metrics::{ArrangementScore, GtObject, PredictedObject, evaluate_arrangement};
+use neuroom_core::metrics::{
+    ArrangementScore, GtObject, PredictedObject, Symmetry, evaluate_arrangement,
+};
 use neuroom_field::{AnalyticColor, AnalyticField, NeusConfig, NeusField};
 use neuroom_render::{Background, InstanceCodes, Model, Scene, SceneObject, Tone};
 use rand::{Rng, SeedableRng};
@@ -113,6 +115,7 @@ pub fn score(objects: &[BenchObject], poses: &[Pose]) -> ArrangementScore {
             model: o.model.clone(),
             size: o.size,
             object_to_world: o.truth.pose,
+            symmetry: Symmetry::None,
         })
         .collect();
     let predicted: Vec<PredictedObject> = objects

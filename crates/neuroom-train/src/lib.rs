@@ -19,6 +19,7 @@ pub mod normals;
 pub mod progress;
 pub mod rng;
 pub mod room;
+pub mod symmetry;
 pub mod trainer;
 
 pub use config::{BudgetClock, ModelBudget, TrainConfig};

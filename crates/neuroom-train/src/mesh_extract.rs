@@ -199,7 +199,7 @@ fn buried_offset(mesh: &TriMesh) -> f32 {
 }
 
 /// Of `samples` points spread over `mesh`, those on the boundary of the solid it encloses.
-fn outer_surface_samples(mesh: &TriMesh, samples: usize) -> Vec<Vec3> {
+pub(crate) fn outer_surface_samples(mesh: &TriMesh, samples: usize) -> Vec<Vec3> {
     let offset = buried_offset(mesh);
     let tree = WindingTree::new(mesh);
     mesh.sample_surface_on_triangles(samples)
@@ -215,7 +215,7 @@ fn outer_surface_samples(mesh: &TriMesh, samples: usize) -> Vec<Vec3> {
 /// Distances from points to a mesh's surface: a k-d tree of points spread densely over the surface,
 /// each tagged with its triangle, proposes the triangles near a query; the distance is the exact
 /// point–triangle distance to the nearest of those.
-struct SurfaceDistance<'a> {
+pub(crate) struct SurfaceDistance<'a> {
     mesh: &'a TriMesh,
     tree: ImmutableKdTree<f32, 3>,
     triangle_of: Vec<u32>,
@@ -230,7 +230,7 @@ const PROPOSALS: (usize, usize) = (20_000, 2_000_000);
 const NEAREST_PROPOSALS: usize = 8;
 
 impl<'a> SurfaceDistance<'a> {
-    fn new(mesh: &'a TriMesh) -> Self {
+    pub(crate) fn new(mesh: &'a TriMesh) -> Self {
         let wanted = (mesh.area() / (PROPOSAL_SPACING * PROPOSAL_SPACING)) as usize;
         let samples = mesh.sample_surface_on_triangles(wanted.clamp(PROPOSALS.0, PROPOSALS.1));
         let points: Vec<[f32; 3]> = samples.iter().map(|(p, _)| p.to_array()).collect();
@@ -244,7 +244,7 @@ impl<'a> SurfaceDistance<'a> {
     }
 
     /// Distance from `q` to the surface.
-    fn distance(&self, q: Vec3) -> f32 {
+    pub(crate) fn distance(&self, q: Vec3) -> f32 {
         let near = self
             .tree
             .nearest_n::<SquaredEuclidean>(&q.to_array(), NEAREST_PROPOSALS.try_into().unwrap());

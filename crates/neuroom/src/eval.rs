@@ -9,6 +9,7 @@ use neuroom_core::metrics::{ArrangementScore, psnr, rotation_error_deg, ssim};
 use neuroom_lpips::Lpips;
 use serde::Serialize;
 
+use crate::score::ShapeSymmetries;
 use crate::view::{ViewCamera, render_view, solved_scene};
 
 /// How to evaluate.
@@ -70,6 +71,8 @@ pub struct EvalMean {
     pub iou_percent: f64,
     /// Mean rotation error of the found objects, degrees.
     pub are_deg: Option<f64>,
+    /// Mean rotation error of the found objects up to their shape symmetry, degrees.
+    pub are_up_to_symmetry_deg: Option<f64>,
     /// Mean position error of the found objects, cm.
     pub ape_cm: Option<f64>,
     /// Identification precision.
@@ -109,6 +112,7 @@ pub fn evaluate(
     progress: &mut dyn FnMut(&Path),
 ) -> anyhow::Result<Evaluation> {
     let room_json = read_room(room.join("room.json"))?;
+    let symmetries = ShapeSymmetries::of_room(&room_json)?;
     let (lpips, lpips_unavailable) = match options.models {
         Some(_) => match Lpips::load_default() {
             Ok(l) => (Some(l), None),
@@ -121,7 +125,7 @@ pub fn evaluate(
         progress(path);
         rows.push(evaluate_one(
             room,
-            &room_json,
+            (&room_json, &symmetries),
             path,
             options,
             lpips.as_ref(),
@@ -160,7 +164,7 @@ fn ground_truth(
 
 fn evaluate_one(
     room: &Path,
-    room_json: &Room,
+    (room_json, symmetries): (&Room, &ShapeSymmetries),
     path: &Path,
     options: &EvalOptions,
     lpips: Option<&Lpips>,
@@ -189,7 +193,7 @@ fn evaluate_one(
             truth.camera_to_world.rotation,
             solved.camera_to_world.rotation,
         ),
-        objects: crate::score::score_in_room(room_json, &truth, &solved),
+        objects: crate::score::score_in_room(room_json, symmetries, &truth, &solved),
         image,
     })
 }
@@ -240,6 +244,7 @@ fn mean_row(room: &str, rows: &[EvalRow]) -> EvalMean {
         arrangements: rows.len(),
         iou_percent: all(&|r| r.objects.mean_iou_percent.unwrap_or(0.0)),
         are_deg: mean_of(rows, |r| r.objects.mean_rotation_error_deg),
+        are_up_to_symmetry_deg: mean_of(rows, |r| r.objects.mean_rotation_error_up_to_symmetry_deg),
         ape_cm: mean_of(rows, |r| r.objects.mean_position_error_cm),
         precision: all(&|r| r.objects.precision),
         recall: all(&|r| r.objects.recall),
@@ -255,13 +260,15 @@ fn cell(v: Option<f64>, digits: usize) -> String {
     v.map_or("–".into(), |x| format!("{x:.digits$}"))
 }
 
-/// The paper's table as text: one line per arrangement, then the room's mean.
+/// The paper's table as text: one line per arrangement, then the room's mean. Beside ARE, the rotation
+/// error up to each object's shape symmetry (`ARE sym`).
 pub fn table(evaluation: &Evaluation) -> String {
     let mut out = format!(
-        "{:<28} {:>6} {:>7} {:>7} {:>5} {:>5} {:>8} {:>7} {:>6} {:>6} {:>6}\n",
+        "{:<28} {:>6} {:>7} {:>7} {:>7} {:>5} {:>5} {:>8} {:>7} {:>6} {:>6} {:>6}\n",
         "panorama",
         "IoU %",
         "ARE °",
+        "ARE sym",
         "APE cm",
         "P %",
         "R %",
@@ -276,7 +283,10 @@ pub fn table(evaluation: &Evaluation) -> String {
         out += &line(
             &r.panorama,
             o.mean_iou_percent.unwrap_or(0.0),
-            o.mean_rotation_error_deg,
+            [
+                o.mean_rotation_error_deg,
+                o.mean_rotation_error_up_to_symmetry_deg,
+            ],
             o.mean_position_error_cm,
             (o.precision, o.recall),
             (r.camera_position_error_cm, r.camera_rotation_error_deg),
@@ -291,7 +301,7 @@ pub fn table(evaluation: &Evaluation) -> String {
     out += &line(
         &format!("{} (mean of {})", m.room, m.arrangements),
         m.iou_percent,
-        m.are_deg,
+        [m.are_deg, m.are_up_to_symmetry_deg],
         m.ape_cm,
         (m.precision, m.recall),
         (m.camera_position_error_cm, m.camera_rotation_error_deg),
@@ -306,17 +316,18 @@ pub fn table(evaluation: &Evaluation) -> String {
 fn line(
     name: &str,
     iou: f64,
-    are: Option<f64>,
+    [are, are_symmetric]: [Option<f64>; 2],
     ape: Option<f64>,
     (precision, recall): (f64, f64),
     (cam_cm, cam_deg): (f64, f64),
     [psnr, ssim, lpips]: [Option<f64>; 3],
 ) -> String {
     format!(
-        "{:<28} {:>6.1} {:>7} {:>7} {:>5.0} {:>5.0} {:>8.1} {:>7.2} {:>6} {:>6} {:>6}\n",
+        "{:<28} {:>6.1} {:>7} {:>7} {:>7} {:>5.0} {:>5.0} {:>8.1} {:>7.2} {:>6} {:>6} {:>6}\n",
         name,
         iou,
         cell(are, 1),
+        cell(are_symmetric, 1),
         cell(ape, 1),
         100.0 * precision,
         100.0 * recall,

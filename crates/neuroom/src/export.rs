@@ -9,7 +9,7 @@ use anyhow::Context as _;
 use glam::DVec3;
 use neuroom_core::formats::{Arrangement, atomic_write, read_arrangement, read_rgb, read_room};
 
-use neuroom_core::metrics::{ArrangementScore, psnr, ssim};
+use neuroom_core::metrics::{ArrangementScore, Symmetry, psnr, ssim};
 use neuroom_core::obb::OrientedBox;
 use neuroom_export::mesh::{Geometry, MeshDetail, SceneMeshes, scene_meshes};
 use neuroom_export::report::{Figure, Report, Section, Table};
@@ -448,7 +448,7 @@ fn score(
 ) -> ArrangementScore {
     crate::score::score_arrangement(truth, solved, |id| {
         let model = lookup(names, id).unwrap_or_else(|| format!("id {id}"));
-        Some((model, lookup(sizes, id)?))
+        Some((model, lookup(sizes, id)?, Symmetry::None))
     })
 }
 

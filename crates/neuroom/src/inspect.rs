@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use neuroom_core::camera::Equirect;
 use neuroom_core::formats::{self, Capture, Room};
 use neuroom_core::mesh::read_ply;
+use neuroom_core::metrics::Symmetry;
 use neuroom_core::{FormatError, FormatResult};
+use neuroom_train::symmetry::shape_symmetry;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -48,6 +50,9 @@ pub struct ObjectReport {
     pub size: [f64; 3],
     /// Triangles of the ground-truth mesh, when `meshes/<name>.ply` exists.
     pub mesh_triangles: Option<usize>,
+    /// The turns about its up axis its mesh's shape does not show (which headings the rotation error
+    /// up to symmetry does not count), when it has a mesh.
+    pub symmetry: Option<Symmetry>,
 }
 
 /// One decoded capture.
@@ -162,7 +167,7 @@ fn inspect_object(
     notes: &mut Vec<String>,
 ) -> FormatResult<ObjectReport> {
     let mesh_path = room.root.join("meshes").join(format!("{}.ply", o.name));
-    let mesh_triangles = if mesh_path.exists() {
+    let (mesh_triangles, symmetry) = if mesh_path.exists() {
         let mesh = read_ply(&mesh_path)?;
         if mesh.triangles.is_empty() {
             return Err(FormatError::file(&mesh_path, "mesh has no triangles"));
@@ -180,9 +185,9 @@ fn inspect_object(
                 ));
             }
         }
-        Some(mesh.triangles.len())
+        (Some(mesh.triangles.len()), Some(shape_symmetry(&mesh)))
     } else {
-        None
+        (None, None)
     };
     Ok(ObjectReport {
         id: o.id,
@@ -191,6 +196,7 @@ fn inspect_object(
         capture: o.capture.clone(),
         size: o.size.to_array(),
         mesh_triangles,
+        symmetry,
     })
 }
 
@@ -457,14 +463,27 @@ fn check_arrangement_ids(path: &Path, known: &BTreeMap<u16, &str>) -> FormatResu
     Ok(())
 }
 
+/// A shape symmetry in words.
+fn describe_symmetry(symmetry: Symmetry) -> String {
+    match symmetry {
+        Symmetry::None => "every heading shows".into(),
+        Symmetry::Turns(n) => format!("looks alike turned by 1/{n} turn"),
+        Symmetry::Continuous => "looks alike turned by any angle".into(),
+    }
+}
+
 impl std::fmt::Display for RoomReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "room `{}` at {}", self.name, self.root.display())?;
         writeln!(f, "  background: {}", self.background)?;
         for o in &self.objects {
-            let mesh = o
-                .mesh_triangles
-                .map_or("no mesh".to_string(), |t| format!("mesh {t} triangles"));
+            let mesh = match (o.mesh_triangles, o.symmetry) {
+                (Some(t), Some(symmetry)) => {
+                    format!("mesh {t} triangles, {}", describe_symmetry(symmetry))
+                }
+                (Some(t), None) => format!("mesh {t} triangles"),
+                _ => "no mesh".to_string(),
+            };
             writeln!(
                 f,
                 "  object {:>3} {:<16} {:<14} size {:.3} × {:.3} × {:.3} m, capture {}, {mesh}",

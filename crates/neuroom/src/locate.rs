@@ -36,6 +36,7 @@ use neuroom_train::{ModelKind, RoomModels};
 use serde::{Deserialize, Serialize};
 
 use crate::scene::load_models;
+use crate::score::{ShapeSymmetries, score_in_room};
 
 /// The database file of a model folder.
 pub fn database_path(models: &Path) -> PathBuf {
@@ -747,6 +748,9 @@ pub struct LocateMean {
     pub iou_percent: f64,
     /// Mean rotation error of the found objects (degrees).
     pub are_deg: f64,
+    /// Mean rotation error of the found objects up to their shape symmetry (degrees).
+    #[serde(default)]
+    pub are_up_to_symmetry_deg: f64,
     /// Mean position error of the found objects (cm).
     pub ape_cm: f64,
     /// Mean seconds per panorama.
@@ -767,6 +771,7 @@ pub fn bench_locate(
     each: &mut dyn FnMut(&PanoramaScore),
 ) -> anyhow::Result<(Vec<PanoramaScore>, LocateMean)> {
     let ctx = LocateContext::load(room, models, config)?;
+    let symmetries = ShapeSymmetries::of_room(&ctx.room)?;
     let hints = crate::fit::room_hints(room)?;
     let mut scores = Vec::new();
     for (png, truth) in test_panoramas(room)? {
@@ -778,7 +783,7 @@ pub fn bench_locate(
         let start = Instant::now();
         let (initial, located) =
             locate_image(&ctx, &QueryImage::Panorama(image.clone()), &name, config)?;
-        let initial_score = fit.map(|_| crate::score::score_in_room(&ctx.room, &truth, &initial));
+        let initial_score = fit.map(|_| score_in_room(&ctx.room, &symmetries, &truth, &initial));
         let arrangement = match fit {
             Some(fit) if !initial.objects.is_empty() => {
                 let result = crate::fit::fit_arrangement(
@@ -807,7 +812,7 @@ pub fn bench_locate(
                 truth.camera_to_world.rotation,
                 arrangement.camera_to_world.rotation,
             ),
-            objects: crate::score::score_in_room(&ctx.room, &truth, &arrangement),
+            objects: score_in_room(&ctx.room, &symmetries, &truth, &arrangement),
             initial: initial_score,
             seconds,
             objective: Some(objective),
@@ -840,6 +845,7 @@ pub(crate) fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {
         recall: mean(&|s| s.objects.recall),
         iou_percent: defined(&|s| s.objects.mean_iou_percent),
         are_deg: defined(&|s| s.objects.mean_rotation_error_deg),
+        are_up_to_symmetry_deg: defined(&|s| s.objects.mean_rotation_error_up_to_symmetry_deg),
         ape_cm: defined(&|s| s.objects.mean_position_error_cm),
         seconds: mean(&|s| s.seconds),
         initial: scores.iter().all(|s| s.initial.is_some()).then(|| {

@@ -22,6 +22,7 @@ use crate::locate::{
     LocateConfig, LocateContext, LocateMean, Located, PanoramaScore, QueryImage, locate_image,
     mean_scores, test_panoramas,
 };
+use crate::score::{ShapeSymmetries, score_in_room};
 
 /// How photos are cut from each test panorama.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -97,6 +98,7 @@ pub fn bench_locate_photos(
     each: &mut dyn FnMut(&PanoramaScore),
 ) -> anyhow::Result<PhotoBench> {
     let ctx = LocateContext::load(room, models, config)?;
+    let symmetries = ShapeSymmetries::of_room(&ctx.room)?;
     let camera = cut.camera();
     let mut scores = Vec::new();
     let mut merged = Vec::new();
@@ -138,7 +140,7 @@ pub fn bench_locate_photos(
                     true_camera.rotation,
                     at.rotation,
                 ),
-                objects: crate::score::score_in_room(&ctx.room, &truth_shown, &found_shown),
+                objects: score_in_room(&ctx.room, &symmetries, &truth_shown, &found_shown),
                 initial: None,
                 seconds,
                 objective: None,
@@ -148,7 +150,7 @@ pub fn bench_locate_photos(
             views.push(score);
         }
         if cut.merge {
-            let score = merged_score(&ctx, &truth, &stem, &views, config);
+            let score = merged_score(&ctx, &symmetries, &truth, &stem, &views, config);
             each(&score);
             merged.push(score);
         }
@@ -170,6 +172,7 @@ pub fn bench_locate_photos(
 /// all of `truth`; the camera is the first photo's, the seconds are the photos' sum.
 fn merged_score(
     ctx: &LocateContext,
+    symmetries: &ShapeSymmetries,
     truth: &Arrangement,
     stem: &str,
     views: &[PanoramaScore],
@@ -190,7 +193,7 @@ fn merged_score(
     let first = &views[0];
     PanoramaScore {
         panorama: format!("{stem}@merged"),
-        objects: crate::score::score_in_room(&ctx.room, truth, &arrangement),
+        objects: score_in_room(&ctx.room, symmetries, truth, &arrangement),
         seconds: views.iter().map(|v| v.seconds).sum(),
         located: Located {
             detections: views.iter().map(|v| v.located.detections).sum(),

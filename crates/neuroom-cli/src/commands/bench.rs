@@ -313,7 +313,8 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
             );
         }
         println!(
-            "{}: camera {:.2} cm {:.3}°, P {:.2} R {:.2}, IoU {:.1} %, ARE {:.1}°, APE {:.1} cm, {:.1} s",
+            "{}: camera {:.2} cm {:.3}°, P {:.2} R {:.2}, IoU {:.1} %, ARE {:.1}° ({:.1}° up to \
+             symmetry), APE {:.1} cm, {:.1} s",
             s.panorama,
             s.camera_position_error_cm,
             s.camera_rotation_error_deg,
@@ -321,6 +322,9 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
             s.objects.recall,
             s.objects.mean_iou_percent.unwrap_or(0.0),
             s.objects.mean_rotation_error_deg.unwrap_or(f64::NAN),
+            s.objects
+                .mean_rotation_error_up_to_symmetry_deg
+                .unwrap_or(f64::NAN),
             s.objects.mean_position_error_cm.unwrap_or(f64::NAN),
             s.seconds
         );
@@ -383,7 +387,7 @@ fn print_locate_mean(
     };
     println!(
         "{label}mean of {}: camera {:.2} cm (max {:.2}) {:.3}° (max {:.3}), P {:.2} R {:.2}, \
-         IoU {:.1} %, ARE {:.1}°, APE {:.1} cm, {:.1} s per image",
+         IoU {:.1} %, ARE {:.1}° ({:.1}° up to symmetry), APE {:.1} cm, {:.1} s per image",
         mean.panoramas,
         mean.camera_position_error_cm,
         mean.camera_position_error_max_cm,
@@ -393,6 +397,7 @@ fn print_locate_mean(
         mean.recall,
         mean.iou_percent,
         mean.are_deg,
+        mean.are_up_to_symmetry_deg,
         mean.ape_cm,
         mean.seconds
     );
