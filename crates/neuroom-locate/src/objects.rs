@@ -12,7 +12,8 @@
 //! explains enough: objects absent from the panorama are not invented. Identical instances (one model,
 //! several ids) are placed one after another at distinct poses. Then each placed object is searched again
 //! in the scene of all the others, and a model left out gets its place back from the objects standing
-//! in it when that explains the whole panorama better.
+//! in it when that explains the whole panorama better. Last, a light tints every object alike: an object
+//! whose fitted tint strays from the others' stays only if it still explains enough under theirs.
 
 use std::collections::HashMap;
 
@@ -122,6 +123,19 @@ pub struct SearchConfig {
     /// direction, and darkening of those facing away: a lamp above or beside an object lights its faces
     /// unevenly, in a way the captures' light did not (0: one gain for every face).
     pub directional_shading: f64,
+    /// A light tints every object of a panorama alike. A placed object whose tint (its gain's ratios
+    /// to their mean) differs from the median tint of the placed objects by more than this factor in
+    /// some channel must still be accepted with its colours under that median tint (within
+    /// [`SearchConfig::tint_band`]) and keep most of its score ([`SearchConfig::tint_retain`]), or
+    /// it leaves: an object fitted to a glow or to a wall the room renders in the wrong colour needs a
+    /// tint of its own. `None`: never checked.
+    pub tint_outlier: Option<f64>,
+    /// How far (factor per channel) an object's tint may stray from the median tint when it is checked.
+    pub tint_band: f64,
+    /// Least fraction of its score an object checked under the median tint must keep. On the living
+    /// preset the true objects whose tint strayed kept 0.99–1.0 of theirs; a floor lamp fitted to a
+    /// wall the room renders too grey kept 0.41, a coffee table fitted to a few pixels 0.71.
+    pub tint_retain: f64,
 }
 
 impl Default for SearchConfig {
@@ -149,6 +163,9 @@ impl Default for SearchConfig {
             max_overlap: 0.1,
             glow_gain: Some(1.2),
             directional_shading: 0.6,
+            tint_outlier: Some(1.12),
+            tint_band: 1.06,
+            tint_retain: 0.85,
         }
     }
 }
@@ -477,7 +494,8 @@ pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> 
     let found = greedy(&target, models, pool.clone(), Vec::new(), config);
     let found = revisit(&target, models, &pool, found, config);
     let found = exchange(&target, models, &pool, found, config);
-    take_outs(&target, models, &pool, found, config)
+    let found = take_outs(&target, models, &pool, found, config);
+    tint_outliers(&target, models, found, config)
 }
 
 /// The models with their clouds' colours under the panorama's light as the empty room shows it (its
@@ -731,6 +749,18 @@ fn score<F>(
     sil: &Silhouette,
     config: &SearchConfig,
 ) -> ((f64, usize, f64), Tone) {
+    score_toned(target, placed, sil, config, config)
+}
+
+/// [`score`] with the object's tone fitted within the gain limits of `tone_limits` (the room's glow
+/// within those of `config`).
+fn score_toned<F>(
+    target: &Target<F>,
+    placed: &Placed,
+    sil: &Silhouette,
+    config: &SearchConfig,
+    tone_limits: &SearchConfig,
+) -> ((f64, usize, f64), Tone) {
     // A rim pixel is modelled as a mix of the object and the room behind it. What the camera did not
     // see (outside a photo's field of view) neither supports nor refutes a hypothesis.
     let (pixels, samples): (Vec<usize>, Vec<ToneSample>) = sil
@@ -761,7 +791,7 @@ fn score<F>(
     if pixels.is_empty() {
         return ((0.0, 0, 0.0), Tone::NEUTRAL);
     }
-    let tone = fit_tone(&samples, config);
+    let tone = fit_tone(&samples, tone_limits);
     let room_gain = config.glow_gain.and_then(|least| {
         let g = local_room_gain(target, placed, sil, config);
         (g[0] * g[1] * g[2] >= least.powi(3)).then_some(g)
@@ -1306,7 +1336,19 @@ fn hypothesis_score<F: Field>(
     }
     let cloud = if coarse { &model.coarse } else { &model.fine };
     let sil = silhouette(target, cloud, pose, &placed.depth, buf);
-    let (mut s, _) = score(target, placed, &sil, config);
+    let (s, _) = score(target, placed, &sil, config);
+    misfit_discounted(s, target, model, pose, config)
+}
+
+/// A score `s` of `model` at `pose` divided by e per [`SearchConfig::wall_distance`] of its
+/// [`room_misfit`] (a loss is left as it is).
+fn misfit_discounted<F: Field>(
+    mut s: (f64, usize, f64),
+    target: &Target<F>,
+    model: &ObjectModel,
+    pose: &Pose,
+    config: &SearchConfig,
+) -> (f64, usize, f64) {
     if s.0 > 0.0 {
         s.0 *= (-(room_misfit(target.room, model, pose) / config.wall_distance) as f64).exp();
     }
@@ -1351,6 +1393,133 @@ fn accepted(s: &(f64, usize, f64), config: &SearchConfig) -> bool {
         && wins >= config.min_pixels
         && precision >= config.min_precision
         && score >= config.min_contrast * visible
+}
+
+/// Least number of placed objects whose median tint [`tint_outliers`] trusts.
+const TINT_CONSENSUS: usize = 3;
+
+/// The placed objects of `found` whose tint agrees with the others' ([`SearchConfig::tint_outlier`]),
+/// and those that, though it does not, are still accepted under the median tint; with what stands on
+/// them.
+fn tint_outliers<F: Field>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    found: Vec<Found>,
+    config: &SearchConfig,
+) -> Vec<Found> {
+    let Some(outlier) = config.tint_outlier else {
+        return found;
+    };
+    let tints: Vec<Option<[f64; 3]>> = (0..found.len())
+        .into_par_iter()
+        .map(|k| object_tint(target, models, &found, k, config))
+        .collect();
+    let Some((median, strays)) = tint_strays(&tints, outlier) else {
+        return found;
+    };
+    let keep: Vec<bool> = (0..found.len())
+        .into_par_iter()
+        .map(|k| !strays[k] || accepted_under_tint(target, models, &found, k, median, config))
+        .collect();
+    let kept = found
+        .into_iter()
+        .zip(keep)
+        .filter_map(|(f, keep)| keep.then_some(f))
+        .collect();
+    without_orphans(models, kept)
+}
+
+/// The median tint of `tints` (per channel, over the objects whose tint is known) and, for each object,
+/// whether its tint strays from it by more than the factor `outlier` in some channel; `None` when fewer
+/// than [`TINT_CONSENSUS`] tints are known.
+fn tint_strays(tints: &[Option<[f64; 3]>], outlier: f64) -> Option<([f64; 3], Vec<bool>)> {
+    let known: Vec<[f64; 3]> = tints.iter().flatten().copied().collect();
+    if known.len() < TINT_CONSENSUS {
+        return None;
+    }
+    let median: [f64; 3] = std::array::from_fn(|c| {
+        let mut v: Vec<f64> = known.iter().map(|t| t[c]).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    });
+    let strays = tints
+        .iter()
+        .map(|t| t.is_some_and(|t| (0..3).any(|c| (t[c] / median[c]).ln().abs() > outlier.ln())))
+        .collect();
+    Some((median, strays))
+}
+
+/// The scene of every object of `found` but the `k`-th.
+fn others_scene<F>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    found: &[Found],
+    k: usize,
+    config: &SearchConfig,
+) -> Placed {
+    let mut others = found.to_vec();
+    others.remove(k);
+    placed_scene(target, models, &others, config)
+}
+
+/// The tint of the `k`-th object of `found` in the scene of the others: its fitted gain over the gain's
+/// geometric mean, per channel; `None` where it shows no pixel.
+fn object_tint<F>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    found: &[Found],
+    k: usize,
+    config: &SearchConfig,
+) -> Option<[f64; 3]> {
+    let placed = others_scene(target, models, found, k, config);
+    let f = &found[k];
+    let mut buf = ZBuffer::default();
+    let sil = silhouette(
+        target,
+        &models[f.model].fine,
+        &f.pose(),
+        &placed.depth,
+        &mut buf,
+    );
+    let ((_, wins, _), tone) = score(target, &placed, &sil, config);
+    let level = (tone.gain[0] * tone.gain[1] * tone.gain[2]).cbrt();
+    (wins > 0 && level > 0.0).then(|| tone.gain.map(|g| g / level))
+}
+
+/// Whether the `k`-th object of `found`, its colours under `tint` and its own tint held within
+/// [`SearchConfig::tint_band`] of it, is still accepted where it stands among the others, and keeps
+/// [`SearchConfig::tint_retain`] of the score its own tint gives it there.
+fn accepted_under_tint<F: Field>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    found: &[Found],
+    k: usize,
+    tint: [f64; 3],
+    config: &SearchConfig,
+) -> bool {
+    let placed = others_scene(target, models, found, k, config);
+    let f = &found[k];
+    let model = &models[f.model];
+    let tinted = Cloud {
+        colors: model
+            .fine
+            .colors
+            .iter()
+            .map(|c| Vec3::from(std::array::from_fn::<f32, 3, _>(|i| c[i] * tint[i] as f32)))
+            .collect(),
+        ..model.fine.clone()
+    };
+    let band = SearchConfig {
+        max_chroma: config.tint_band,
+        ..config.clone()
+    };
+    let pose = f.pose();
+    let mut buf = ZBuffer::default();
+    let own = hypothesis_score(target, &placed, model, false, &pose, &mut buf, config);
+    let sil = silhouette(target, &tinted, &pose, &placed.depth, &mut buf);
+    let (s, _) = score_toned(target, &placed, &sil, config, &band);
+    let shared = misfit_discounted(s, target, model, &pose, config);
+    accepted(&shared, config) && shared.0 >= config.tint_retain * own.0
 }
 
 /// `mask` grown by `n` pixels.
@@ -1523,6 +1692,27 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn an_object_whose_tint_strays_from_the_others_is_checked() {
+        // Four objects under a warm light, a fifth fitted with a blue tint of its own (the floor lamp
+        // invented on a wall that the empty room renders too grey), one that shows no pixel.
+        let warm = |r: f64| Some([r, 1.0, 1.0 / r]);
+        let tints = [
+            warm(1.05),
+            warm(1.08),
+            warm(1.02),
+            warm(1.06),
+            Some([0.88, 0.95, 1.18]),
+            None,
+        ];
+        let (median, strays) = tint_strays(&tints, 1.12).unwrap();
+        assert_eq!(median, [1.05, 1.0, 1.0 / 1.05]);
+        assert_eq!(strays, [false, false, false, false, true, false]);
+        // A looser limit lets it be; too few known tints make no consensus.
+        assert!(tint_strays(&tints, 1.3).unwrap().1.iter().all(|s| !s));
+        assert!(tint_strays(&tints[3..], 1.12).is_none());
     }
 
     #[test]
