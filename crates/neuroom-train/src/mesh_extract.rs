@@ -230,8 +230,14 @@ const PROPOSALS: (usize, usize) = (20_000, 2_000_000);
 const NEAREST_PROPOSALS: usize = 8;
 
 impl<'a> SurfaceDistance<'a> {
-    pub(crate) fn new(mesh: &'a TriMesh) -> Self {
-        let wanted = (mesh.area() / (PROPOSAL_SPACING * PROPOSAL_SPACING)) as usize;
+    fn new(mesh: &'a TriMesh) -> Self {
+        Self::with_spacing(mesh, PROPOSAL_SPACING)
+    }
+
+    /// As [`SurfaceDistance::new`], the proposing points `spacing` apart (within [`PROPOSALS`]): a
+    /// query is given the distance to a triangle at most about that far from its nearest.
+    pub(crate) fn with_spacing(mesh: &'a TriMesh, spacing: f32) -> Self {
+        let wanted = (mesh.area() / (spacing * spacing)) as usize;
         let samples = mesh.sample_surface_on_triangles(wanted.clamp(PROPOSALS.0, PROPOSALS.1));
         let points: Vec<[f32; 3]> = samples.iter().map(|(p, _)| p.to_array()).collect();
         Self {
