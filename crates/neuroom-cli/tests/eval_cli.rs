@@ -28,7 +28,12 @@ fn the_ground_truth_scores_perfectly() {
         .find(|l| l.starts_with("p0.png"))
         .expect("a row for the panorama");
     let cells: Vec<&str> = row.split_whitespace().collect();
-    assert_eq!(&cells[1..6], ["100.0", "0.0", "0.0", "100", "100"], "{row}");
+    // IoU, ARE, ARE up to symmetry, APE, precision, recall.
+    assert_eq!(
+        &cells[1..7],
+        ["100.0", "0.0", "0.0", "0.0", "100", "100"],
+        "{row}"
+    );
 }
 
 #[test]

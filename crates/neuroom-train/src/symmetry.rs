@@ -165,4 +165,3 @@ mod tests {
         assert_eq!(shape_symmetry(&TriMesh::default()), Symmetry::None);
     }
 }
-
