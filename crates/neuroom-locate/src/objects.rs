@@ -1400,7 +1400,7 @@ fn accepted(s: &(f64, usize, f64), config: &SearchConfig) -> bool {
 const TINT_CONSENSUS: usize = 3;
 
 /// The placed objects of `found` whose tint agrees with the others' ([`SearchConfig::tint_outlier`]),
-/// and those that, though it does not, still hold under the median tint ([`accepted_under_tint`]);
+/// and those that, though it does not, still hold under the median tint ([`holds_under_tint`]);
 /// with what stands on them.
 fn tint_outliers<F: Field>(
     target: &Target<F>,
@@ -1411,16 +1411,27 @@ fn tint_outliers<F: Field>(
     let Some(outlier) = config.tint_outlier else {
         return found;
     };
-    let tints: Vec<Option<[f64; 3]>> = (0..found.len())
+    let standings: Vec<Standing> = (0..found.len())
         .into_par_iter()
-        .map(|k| object_tint(target, models, &found, k, config))
+        .map(|k| standing(target, models, &found, k, config))
         .collect();
+    let tints: Vec<Option<[f64; 3]>> = standings.iter().map(|s| s.tint).collect();
     let Some((median, strays)) = tint_strays(&tints, outlier) else {
         return found;
     };
     let keep: Vec<bool> = (0..found.len())
         .into_par_iter()
-        .map(|k| !strays[k] || accepted_under_tint(target, models, &found, k, median, config))
+        .map(|k| {
+            !strays[k]
+                || holds_under_tint(
+                    target,
+                    &models[found[k].model],
+                    &found[k],
+                    &standings[k],
+                    median,
+                    config,
+                )
+        })
         .collect();
     let kept = found
         .into_iter()
@@ -1450,57 +1461,56 @@ fn tint_strays(tints: &[Option<[f64; 3]>], outlier: f64) -> Option<([f64; 3], Ve
     Some((median, strays))
 }
 
-/// The scene of every object of `found` but the `k`-th.
-fn others_scene<F>(
-    target: &Target<F>,
-    models: &[ObjectModel],
-    found: &[Found],
-    k: usize,
-    config: &SearchConfig,
-) -> Placed {
-    let mut others = found.to_vec();
-    others.remove(k);
-    placed_scene(target, models, &others, config)
+/// A placed object as it stands among the others: their scene, its score there (as
+/// [`hypothesis_score`] gives it) and its tint (its fitted gain over the gain's geometric mean, per
+/// channel; `None` where it shows no pixel).
+struct Standing {
+    others: Placed,
+    score: (f64, usize, f64),
+    tint: Option<[f64; 3]>,
 }
 
-/// The tint of the `k`-th object of `found` in the scene of the others: its fitted gain over the gain's
-/// geometric mean, per channel; `None` where it shows no pixel.
-fn object_tint<F>(
+/// How the `k`-th object of `found` stands among the others ([`Standing`]).
+fn standing<F: Field>(
     target: &Target<F>,
     models: &[ObjectModel],
     found: &[Found],
     k: usize,
     config: &SearchConfig,
-) -> Option<[f64; 3]> {
-    let placed = others_scene(target, models, found, k, config);
-    let f = &found[k];
+) -> Standing {
+    let mut rest = found.to_vec();
+    rest.remove(k);
+    let others = placed_scene(target, models, &rest, config);
+    let (f, model) = (&found[k], &models[found[k].model]);
+    let pose = f.pose();
     let mut buf = ZBuffer::default();
-    let sil = silhouette(
-        target,
-        &models[f.model].fine,
-        &f.pose(),
-        &placed.depth,
-        &mut buf,
-    );
-    let ((_, wins, _), tone) = score(target, &placed, &sil, config);
+    let sil = silhouette(target, &model.fine, &pose, &others.depth, &mut buf);
+    let (s, tone) = score(target, &others, &sil, config);
     let level = (tone.gain[0] * tone.gain[1] * tone.gain[2]).cbrt();
-    (wins > 0 && level > 0.0).then(|| tone.gain.map(|g| g / level))
+    let tint = (s.1 > 0 && level > 0.0).then(|| tone.gain.map(|g| g / level));
+    let score = if others.collides(model, &pose, config) {
+        (0.0, 0, 0.0)
+    } else {
+        misfit_discounted(s, target, model, &pose, config)
+    };
+    Standing {
+        others,
+        score,
+        tint,
+    }
 }
 
-/// Whether the `k`-th object of `found`, its colours under `tint` and its own tint held within
+/// Whether `f` (of `model`), its colours under `tint` and its own tint held within
 /// [`SearchConfig::tint_band`] of it, is still accepted where it stands among the others, and keeps
 /// [`SearchConfig::tint_retain`] of the score its own tint gives it there.
-fn accepted_under_tint<F: Field>(
+fn holds_under_tint<F: Field>(
     target: &Target<F>,
-    models: &[ObjectModel],
-    found: &[Found],
-    k: usize,
+    model: &ObjectModel,
+    f: &Found,
+    standing: &Standing,
     tint: [f64; 3],
     config: &SearchConfig,
 ) -> bool {
-    let placed = others_scene(target, models, found, k, config);
-    let f = &found[k];
-    let model = &models[f.model];
     let tinted = Cloud {
         colors: model
             .fine
@@ -1516,11 +1526,10 @@ fn accepted_under_tint<F: Field>(
     };
     let pose = f.pose();
     let mut buf = ZBuffer::default();
-    let own = hypothesis_score(target, &placed, model, false, &pose, &mut buf, config);
-    let sil = silhouette(target, &tinted, &pose, &placed.depth, &mut buf);
-    let (s, _) = score_toned(target, &placed, &sil, config, &band);
+    let sil = silhouette(target, &tinted, &pose, &standing.others.depth, &mut buf);
+    let (s, _) = score_toned(target, &standing.others, &sil, config, &band);
     let shared = misfit_discounted(s, target, model, &pose, config);
-    accepted(&shared, config) && shared.0 >= config.tint_retain * own.0
+    accepted(&shared, config) && shared.0 >= config.tint_retain * standing.score.0
 }
 
 /// `mask` grown by `n` pixels.

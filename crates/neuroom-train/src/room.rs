@@ -117,8 +117,7 @@ pub fn model_specs(room: &Room) -> Vec<ModelSpec> {
                 max: half.to_array(),
             }),
             objects: members.iter().map(|o| o.name.clone()).collect(),
-            truth_mesh: Some(room.root.join("meshes").join(format!("{}.ply", first.name)))
-                .filter(|p| p.is_file()),
+            truth_mesh: Some(room.truth_mesh_path(first)).filter(|p| p.is_file()),
         });
     }
     specs

@@ -17,7 +17,7 @@ use crate::mesh_extract::{SurfaceDistance, outer_surface_samples};
 /// Points spread over the outer surface and turned.
 const SAMPLES: usize = 4000;
 /// Orders of finite symmetry tried, largest first: the first whose turn keeps the shape is taken.
-const ORDERS: [u32; 7] = [8, 6, 5, 4, 3, 2, 1];
+const ORDERS: [u32; 6] = [8, 6, 5, 4, 3, 2];
 /// Turns (radians) that no finite order below 100 holds: a shape kept by both is a body of revolution.
 const ODD_TURNS: [f32; 2] = [0.37, 1.0];
 /// Largest distance a turned point may land from the surface, as a fraction of the diagonal of the
@@ -56,13 +56,10 @@ pub fn shape_symmetry(mesh: &TriMesh) -> Symmetry {
     if ODD_TURNS.iter().all(|&a| keeps(a)) {
         return Symmetry::Continuous;
     }
-    match ORDERS
+    ORDERS
         .into_iter()
-        .find(|&n| n == 1 || keeps(std::f32::consts::TAU / n as f32))
-    {
-        Some(n) if n > 1 => Symmetry::Turns(n),
-        _ => Symmetry::None,
-    }
+        .find(|&n| keeps(std::f32::consts::TAU / n as f32))
+        .map_or(Symmetry::None, Symmetry::Turns)
 }
 
 #[cfg(test)]
@@ -81,7 +78,6 @@ mod tests {
                 .collect()
         };
         let (bottom, top) = (ring(z0), ring(z0 + h));
-        let base = 0u32;
         mesh.positions.extend(&bottom);
         mesh.positions.extend(&top);
         mesh.positions.push(Vec3::new(cx, cy, z0));
@@ -89,7 +85,7 @@ mod tests {
         let (cb, ct) = (2 * sides, 2 * sides + 1);
         for k in 0..sides {
             let j = (k + 1) % sides;
-            let (b0, b1, t0, t1) = (base + k, base + j, sides + k, sides + j);
+            let (b0, b1, t0, t1) = (k, j, sides + k, sides + j);
             mesh.triangles.push([b0, b1, t1]);
             mesh.triangles.push([b0, t1, t0]);
             mesh.triangles.push([cb, b1, b0]);

@@ -166,7 +166,7 @@ fn inspect_object(
     o: &formats::RoomObject,
     notes: &mut Vec<String>,
 ) -> FormatResult<ObjectReport> {
-    let mesh_path = room.root.join("meshes").join(format!("{}.ply", o.name));
+    let mesh_path = room.truth_mesh_path(o);
     let (mesh_triangles, symmetry) = if mesh_path.exists() {
         let mesh = read_ply(&mesh_path)?;
         if mesh.triangles.is_empty() {

@@ -52,24 +52,22 @@ pub fn score_arrangement(
 pub struct ShapeSymmetries(HashMap<u16, Symmetry>);
 
 impl ShapeSymmetries {
-    /// Reads the meshes of `room`'s objects (one per capture: instances share a shape) and finds their
-    /// symmetries. A mesh that cannot be read is an error naming it.
+    /// Reads one mesh per capture of `room` (instances share a shape: the first of them that has a
+    /// mesh) and finds its symmetry. A mesh that cannot be read is an error naming it.
     pub fn of_room(room: &Room) -> anyhow::Result<Self> {
-        let mut by_capture: HashMap<&std::path::Path, Symmetry> = HashMap::new();
         let mut by_id = HashMap::new();
-        for o in &room.objects {
-            let path = room.root.join("meshes").join(format!("{}.ply", o.name));
-            let symmetry = match by_capture.get(o.capture.as_path()) {
-                Some(&known) => known,
-                None if path.is_file() => {
-                    let mesh = read_ply(&path)
-                        .with_context(|| format!("reading the shape of object `{}`", o.name))?;
-                    shape_symmetry(&mesh)
-                }
-                None => continue,
+        for (_, members) in room.objects_by_capture() {
+            let Some((o, path)) = members
+                .iter()
+                .map(|o| (o, room.truth_mesh_path(o)))
+                .find(|(_, p)| p.is_file())
+            else {
+                continue;
             };
-            by_capture.insert(o.capture.as_path(), symmetry);
-            by_id.insert(o.id, symmetry);
+            let mesh = read_ply(&path)
+                .with_context(|| format!("reading the shape of object `{}`", o.name))?;
+            let symmetry = shape_symmetry(&mesh);
+            by_id.extend(members.iter().map(|m| (m.id, symmetry)));
         }
         Ok(Self(by_id))
     }

@@ -60,6 +60,13 @@ impl Room {
         self.root.join(capture)
     }
 
+    /// Where FORMAT.md puts the optional ground-truth mesh of `object`: `meshes/<name>.ply`.
+    pub fn truth_mesh_path(&self, object: &RoomObject) -> PathBuf {
+        self.root
+            .join("meshes")
+            .join(format!("{}.ply", object.name))
+    }
+
     /// The object with instance id `id`.
     pub fn object_by_id(&self, id: u16) -> Option<&RoomObject> {
         self.objects.iter().find(|o| o.id == id)
