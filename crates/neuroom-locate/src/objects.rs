@@ -137,6 +137,10 @@ pub struct SearchConfig {
     /// 56 pixels 0.82; a floor lamp fitted to a wall the room renders too grey kept 0.41, a coffee table
     /// fitted to a few pixels 0.71, a chair 2.2 m off 0.70.
     pub tint_retain: f64,
+    /// The camera stands in free space (on a tripod or a robot): no object's box, grown by this
+    /// margin (metres), may reach the vertical line from the floor up to the camera. Without it a
+    /// chair put under the camera explains the bottom of the panorama, where the room renders poorly.
+    pub camera_clearance: f64,
 }
 
 impl Default for SearchConfig {
@@ -167,6 +171,7 @@ impl Default for SearchConfig {
             tint_outlier: Some(1.12),
             tint_band: 1.06,
             tint_retain: 0.8,
+            camera_clearance: 0.1,
         }
     }
 }
@@ -483,20 +488,71 @@ pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> 
     let target = Target::new(input, config);
     let (empty, models) = (input.empty, input.models);
     let floor = floor_height(empty, &input.camera_to_world);
-    let mut pool: Vec<Hypothesis> = Vec::new();
-    for (m, model) in models.iter().enumerate() {
-        let hyps = match model.placement {
-            Placement::Floor => floor_hypotheses(&target, m, model, floor, config),
-            Placement::Wall => wall_hypotheses(&target, m, model),
-            Placement::On(_) => Vec::new(),
-        };
-        pool.extend(prune(&target, models, hyps, config));
-    }
+    let empty_room = Placed::nothing(&target);
+    let all: Vec<usize> = (0..models.len()).collect();
+    let pool = own_hypotheses(&target, &empty_room, models, &all, &[], floor, config);
     let found = greedy(&target, models, pool.clone(), Vec::new(), config);
     let found = revisit(&target, models, &pool, found, config);
     let found = exchange(&target, models, &pool, found, config);
     let found = take_outs(&target, models, &pool, found, config);
-    tint_outliers(&target, models, found, config)
+    let found = tint_outliers(&target, models, found, config);
+    residual_search(&target, models, &pool, found, floor, config)
+}
+
+/// The hypotheses of the models `which`, each model's best few as scored in the scene `placed`
+/// ([`prune_in`]): on the floor's grid, on the walls, or on the objects of `found` that carry them.
+fn own_hypotheses<F: Field>(
+    target: &Target<F>,
+    placed: &Placed,
+    models: &[ObjectModel],
+    which: &[usize],
+    found: &[Found],
+    floor: f32,
+    config: &SearchConfig,
+) -> Vec<Hypothesis> {
+    let mut pool = Vec::new();
+    for &m in which {
+        let model = &models[m];
+        let hyps = match model.placement {
+            Placement::Floor => floor_hypotheses(target, m, model, floor, config),
+            Placement::Wall => wall_hypotheses(target, m, model),
+            Placement::On(supporter) => found
+                .iter()
+                .filter(|f| f.model == supporter)
+                .flat_map(|f| support_grid(m, model, &models[supporter], &f.pose(), config))
+                .collect(),
+        };
+        pool.extend(prune_in(target, placed, models, hyps, config));
+    }
+    pool
+}
+
+/// The search again from `found`, with every model's hypotheses pruned anew in the scene of the placed
+/// objects: the pool was pruned in the empty room, where the placed objects' pixels draw every model's
+/// best hypotheses to them, so a model may have had none near where it stands (a chair 0.8 m from its
+/// nearest hypothesis on bedroom a1_l1). Greedy placement of the models still short of instances and a
+/// pass over every object (from the old and the new hypotheses) follow, then the tint check
+/// ([`tint_outliers`]); the result is kept when it explains the panorama clearly better
+/// ([`Placed::clearly_better`]).
+fn residual_search<F: Field>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    pool: &[Hypothesis],
+    found: Vec<Found>,
+    floor: f32,
+    config: &SearchConfig,
+) -> Vec<Found> {
+    let all: Vec<usize> = (0..models.len()).collect();
+    let scene = placed_scene(target, models, &found, config);
+    let fresh = own_hypotheses(target, &scene, models, &all, &found, floor, config);
+    let wider: Vec<Hypothesis> = pool.iter().chain(&fresh).copied().collect();
+    let (candidate, _) = search_on(target, models, fresh, &wider, found.clone(), config);
+    let candidate = tint_outliers(target, models, candidate, config);
+    if scene.clearly_better(&placed_scene(target, models, &candidate, config), config) {
+        candidate
+    } else {
+        found
+    }
 }
 
 /// The models with their clouds' colours under the panorama's light as the empty room shows it (its
@@ -661,12 +717,22 @@ fn prune<F: Field>(
     hyps: Vec<Hypothesis>,
     config: &SearchConfig,
 ) -> Vec<Hypothesis> {
-    let placed = Placed::nothing(target);
+    prune_in(target, &Placed::nothing(target), models, hyps, config)
+}
+
+/// [`prune`] in the scene `placed`: hypotheses score by what they explain beyond its objects.
+fn prune_in<F: Field>(
+    target: &Target<F>,
+    placed: &Placed,
+    models: &[ObjectModel],
+    hyps: Vec<Hypothesis>,
+    config: &SearchConfig,
+) -> Vec<Hypothesis> {
     let scored: Vec<Scored> = hyps
         .into_par_iter()
         .map_init(ZBuffer::default, |buf, h| {
             let model = &models[h.model];
-            let s = hypothesis_score(target, &placed, model, true, &h.pose, buf, config);
+            let s = hypothesis_score(target, placed, model, true, &h.pose, buf, config);
             Scored {
                 score: s.0,
                 hypothesis: h,
@@ -1332,13 +1398,27 @@ fn hypothesis_score<F: Field>(
     buf: &mut ZBuffer,
     config: &SearchConfig,
 ) -> (f64, usize, f64) {
-    if placed.collides(model, pose, config) {
+    if placed.collides(model, pose, config) || blocks_camera(target, model, pose, config) {
         return (0.0, 0, 0.0);
     }
     let cloud = if coarse { &model.coarse } else { &model.fine };
     let sil = silhouette(target, cloud, pose, &placed.depth, buf);
     let (s, _) = score(target, placed, &sil, config);
     misfit_discounted(s, target, model, pose, config)
+}
+
+/// Whether `model` at `pose` reaches the line the camera stands on ([`SearchConfig::camera_clearance`]):
+/// its box, grown by the clearance, holds that line's point at the box centre's height (at the
+/// camera's height, for a box above it).
+fn blocks_camera<F>(
+    target: &Target<F>,
+    model: &ObjectModel,
+    pose: &Pose,
+    config: &SearchConfig,
+) -> bool {
+    let camera = target.camera.translation;
+    let probe = DVec3::new(camera.x, camera.y, pose.translation.z.min(camera.z));
+    model.box_at(pose).contains(probe, config.camera_clearance)
 }
 
 /// A score `s` of `model` at `pose` divided by e per [`SearchConfig::wall_distance`] of its
@@ -1560,32 +1640,44 @@ fn support_hypotheses<F: Field>(
         if model.placement != Placement::On(supporter) {
             continue;
         }
-        let step = 0.03f32;
-        let (nx, ny) = (
-            (2.0 * base.half.x / step) as i32,
-            (2.0 * base.half.y / step) as i32,
-        );
-        let mut hyps = Vec::new();
-        for i in 0..=nx {
-            for j in 0..=ny {
-                let local = Vec3::new(
-                    -base.half.x + i as f32 * step,
-                    -base.half.y + j as f32 * step,
-                    base.half.z + model.half.z,
-                );
-                let t = pose.transform_point(local.as_dvec3());
-                for k in 0..config.headings {
-                    let yaw = std::f64::consts::TAU * k as f64 / config.headings as f64;
-                    hyps.push(Hypothesis {
-                        model: m,
-                        pose: Pose::from_yaw_translation(yaw, t),
-                    });
-                }
-            }
-        }
+        let hyps = support_grid(m, model, base, pose, config);
         out.extend(prune(target, models, hyps, config));
     }
     out
+}
+
+/// Poses of model `m` on the top face of `base` standing at `pose`: a grid 3 cm apart, every heading.
+fn support_grid(
+    m: usize,
+    model: &ObjectModel,
+    base: &ObjectModel,
+    pose: &Pose,
+    config: &SearchConfig,
+) -> Vec<Hypothesis> {
+    let step = 0.03f32;
+    let (nx, ny) = (
+        (2.0 * base.half.x / step) as i32,
+        (2.0 * base.half.y / step) as i32,
+    );
+    let mut hyps = Vec::new();
+    for i in 0..=nx {
+        for j in 0..=ny {
+            let local = Vec3::new(
+                -base.half.x + i as f32 * step,
+                -base.half.y + j as f32 * step,
+                base.half.z + model.half.z,
+            );
+            let t = pose.transform_point(local.as_dvec3());
+            for k in 0..config.headings {
+                let yaw = std::f64::consts::TAU * k as f64 / config.headings as f64;
+                hyps.push(Hypothesis {
+                    model: m,
+                    pose: Pose::from_yaw_translation(yaw, t),
+                });
+            }
+        }
+    }
+    hyps
 }
 
 /// Coordinate descent on (x, y, z, yaw) with shrinking steps, scored with the fine cloud.

@@ -309,8 +309,15 @@ struct PlacedBox {
 
 impl PlacedBox {
     fn new() -> Self {
+        Self::at(Pose::from_yaw_translation(
+            0.5,
+            DVec3::new(2.7, 2.0, BOX_A.z as f64),
+        ))
+    }
+
+    /// The red box standing at `truth`.
+    fn at(truth: Pose) -> Self {
         let camera = Pose::new(DMat3::IDENTITY, DVec3::new(1.5, 1.4, 1.4));
-        let truth = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, BOX_A.z as f64));
         let (empty, view) = object_view(&camera, &truth);
         let detections = ResidualDetector::default().detect(&view);
         Self {
@@ -366,6 +373,21 @@ fn the_true_pose_scores_above_a_turned_or_shifted_one() {
         let s = score(&other);
         assert!(s.0 < best.0, "{s:?} ≥ {best:?}");
     }
+}
+
+#[test]
+fn no_object_is_placed_where_the_camera_stands() {
+    let truth = Pose::from_yaw_translation(0.5, DVec3::new(1.55, 1.4, BOX_A.z as f64));
+    let scene = PlacedBox::at(truth);
+    let input = scene.input();
+    let config = SearchConfig::default();
+    assert_eq!(pose_score(&input, 0, &truth, &config).0, 0.0);
+    let anywhere = SearchConfig {
+        camera_clearance: f64::NEG_INFINITY,
+        ..config
+    };
+    let seen = pose_score(&input, 0, &truth, &anywhere);
+    assert!(seen.0 > 0.0, "{seen:?}");
 }
 
 #[test]
