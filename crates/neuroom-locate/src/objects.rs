@@ -647,19 +647,21 @@ fn floor_hypotheses<F>(
                 z as f64,
             );
             let probe = Pose::new(glam::DMat3::IDENTITY, t);
-            if !axis_allowed(target, m, model, &probe) {
-                continue;
-            }
-            for k in 0..config.headings {
-                let yaw = std::f64::consts::TAU * k as f64 / config.headings as f64;
-                out.push(Hypothesis {
-                    model: m,
-                    pose: Pose::from_yaw_translation(yaw, t),
-                });
+            if axis_allowed(target, m, model, &probe) {
+                out.extend(every_heading(m, t, config));
             }
         }
     }
     out
+}
+
+/// Model `m` standing at `t`, turned to each of [`SearchConfig::headings`] headings.
+fn every_heading(m: usize, t: DVec3, config: &SearchConfig) -> impl Iterator<Item = Hypothesis> {
+    let headings = config.headings;
+    (0..headings).map(move |k| Hypothesis {
+        model: m,
+        pose: Pose::from_yaw_translation(std::f64::consts::TAU * k as f64 / headings as f64, t),
+    })
 }
 
 /// The horizontal extent of the empty room seen in the view.
@@ -1668,13 +1670,7 @@ fn support_grid(
                 base.half.z + model.half.z,
             );
             let t = pose.transform_point(local.as_dvec3());
-            for k in 0..config.headings {
-                let yaw = std::f64::consts::TAU * k as f64 / config.headings as f64;
-                hyps.push(Hypothesis {
-                    model: m,
-                    pose: Pose::from_yaw_translation(yaw, t),
-                });
-            }
+            hyps.extend(every_heading(m, t, config));
         }
     }
     hyps
