@@ -17,7 +17,7 @@
 
 use std::collections::HashMap;
 
-use glam::{DMat3, DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec2, Vec3};
 use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
@@ -303,10 +303,17 @@ impl Placed {
 /// bottom within a few centimetres of it.
 fn rests_on(base: &OrientedBox, model: &ObjectModel, pose: &Pose) -> bool {
     let local = base.pose.inverse().transform_point(pose.translation);
-    let half = 0.5 * base.size;
+    let half = 0.5 * base.size - DVec3::splat(support_inset(model) as f64);
     local.x.abs() <= half.x
         && local.y.abs() <= half.y
         && (local.z - half.z - model.half.z as f64).abs() < SUPPORT_TOLERANCE
+}
+
+/// How far inside the edges of the top face it stands on an object's centre must be: a quarter of its
+/// smaller half width. With its centre of mass on the very edge it would tip over; on living a0_l1 a vase
+/// on the cabinet's front edge explained the edge's pixels better than the true one (10 against 5.5).
+fn support_inset(model: &ObjectModel) -> f32 {
+    0.25 * model.half.x.min(model.half.y)
 }
 
 /// `found` without the objects that stand on another model (a lamp on a desk) where no placed object of
@@ -1657,16 +1664,14 @@ fn support_grid(
     config: &SearchConfig,
 ) -> Vec<Hypothesis> {
     let step = 0.03f32;
-    let (nx, ny) = (
-        (2.0 * base.half.x / step) as i32,
-        (2.0 * base.half.y / step) as i32,
-    );
+    let top = (base.half.truncate() - Vec2::splat(support_inset(model))).max(Vec2::ZERO);
+    let (nx, ny) = ((2.0 * top.x / step) as i32, (2.0 * top.y / step) as i32);
     let mut hyps = Vec::new();
     for i in 0..=nx {
         for j in 0..=ny {
             let local = Vec3::new(
-                -base.half.x + i as f32 * step,
-                -base.half.y + j as f32 * step,
+                -top.x + i as f32 * step,
+                -top.y + j as f32 * step,
                 base.half.z + model.half.z,
             );
             let t = pose.transform_point(local.as_dvec3());
@@ -1932,8 +1937,17 @@ mod tests {
             &Pose::from_yaw_translation(0.0, DVec3::new(1.3, 1.0, 0.25)),
             &config
         ));
-        // Standing on the table's top, anywhere on it; not beside it at the same height, not sunk into it.
+        // Standing on the table's top, anywhere on it but with its centre on the very edge; not beside
+        // it at the same height, not sunk into it.
         assert!(placed.supports(&lamp, &on_top));
+        let table_at = |x: f64, y: f64| {
+            Pose::from_yaw_translation(0.3, DVec3::new(1.0, 1.0, 0.25))
+                .transform_point(DVec3::new(x, y, 0.4))
+        };
+        let near_edge = Pose::from_yaw_translation(0.0, table_at(0.27, 0.0));
+        let on_edge = Pose::from_yaw_translation(0.0, table_at(0.29, 0.0));
+        assert!(placed.supports(&lamp, &near_edge));
+        assert!(!placed.supports(&lamp, &on_edge));
         assert!(placed.supports(
             &lamp,
             &Pose::from_yaw_translation(2.0, DVec3::new(0.75, 1.2, 0.65))
