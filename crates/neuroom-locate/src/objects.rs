@@ -496,8 +496,7 @@ pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> 
     let (empty, models) = (input.empty, input.models);
     let floor = floor_height(empty, &input.camera_to_world);
     let empty_room = Placed::nothing(&target);
-    let all: Vec<usize> = (0..models.len()).collect();
-    let pool = own_hypotheses(&target, &empty_room, models, &all, &[], floor, config);
+    let pool = pruned_hypotheses(&target, &empty_room, models, &[], floor, config);
     let found = greedy(&target, models, pool.clone(), Vec::new(), config);
     let found = revisit(&target, models, &pool, found, config);
     let found = exchange(&target, models, &pool, found, config);
@@ -506,20 +505,18 @@ pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> 
     residual_search(&target, models, &pool, found, floor, config)
 }
 
-/// The hypotheses of the models `which`, each model's best few as scored in the scene `placed`
-/// ([`prune_in`]): on the floor's grid, on the walls, or on the objects of `found` that carry them.
-fn own_hypotheses<F: Field>(
+/// Every model's hypotheses, its best few as scored in the scene `placed` ([`prune_in`]): on the
+/// floor's grid, on the walls, or on the objects of `found` that carry them.
+fn pruned_hypotheses<F: Field>(
     target: &Target<F>,
     placed: &Placed,
     models: &[ObjectModel],
-    which: &[usize],
     found: &[Found],
     floor: f32,
     config: &SearchConfig,
 ) -> Vec<Hypothesis> {
     let mut pool = Vec::new();
-    for &m in which {
-        let model = &models[m];
+    for (m, model) in models.iter().enumerate() {
         let hyps = match model.placement {
             Placement::Floor => floor_hypotheses(target, m, model, floor, config),
             Placement::Wall => wall_hypotheses(target, m, model),
@@ -549,9 +546,8 @@ fn residual_search<F: Field>(
     floor: f32,
     config: &SearchConfig,
 ) -> Vec<Found> {
-    let all: Vec<usize> = (0..models.len()).collect();
     let scene = placed_scene(target, models, &found, config);
-    let fresh = own_hypotheses(target, &scene, models, &all, &found, floor, config);
+    let fresh = pruned_hypotheses(target, &scene, models, &found, floor, config);
     let wider: Vec<Hypothesis> = pool.iter().chain(&fresh).copied().collect();
     let (candidate, _) = search_on(target, models, fresh, &wider, found.clone(), config);
     let candidate = tint_outliers(target, models, candidate, config);
