@@ -497,8 +497,8 @@ pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> 
     let floor = floor_height(empty, &input.camera_to_world);
     let empty_room = Placed::nothing(&target);
     let pool = pruned_hypotheses(&target, &empty_room, models, &[], floor, config);
-    let found = greedy(&target, models, pool.clone(), Vec::new(), config);
-    let found = revisit(&target, models, &pool, found, config);
+    let found = greedy(&target, models, pool.clone(), Vec::new(), None, config);
+    let found = revisit(&target, models, &pool, found, None, config);
     let found = exchange(&target, models, &pool, found, config);
     let found = take_outs(&target, models, &pool, found, config);
     let found = tint_outliers(&target, models, found, config);
@@ -534,10 +534,13 @@ fn pruned_hypotheses<F: Field>(
 /// The search again from `found`, with every model's hypotheses pruned anew in the scene of the placed
 /// objects: the pool was pruned in the empty room, where the placed objects' pixels draw every model's
 /// best hypotheses to them, so a model may have had none near where it stands (a chair 0.8 m from its
-/// nearest hypothesis on bedroom a1_l1). Greedy placement of the models still short of instances and a
-/// pass over every object (from the old and the new hypotheses) follow, then the tint check
-/// ([`tint_outliers`]); the result is kept when it explains the panorama clearly better
-/// ([`Placed::clearly_better`]).
+/// nearest hypothesis on bedroom a1_l1). Greedy placement of the models still short of instances
+/// follows, of hypotheses that share the placed objects' tint ([`consensus_tint`]): the wrong places
+/// the tint check took objects from would otherwise be taken again first. Then a pass over every
+/// object (from the old and the new hypotheses, under the same rule). Of the placements alone and
+/// the placements with the pass, each after the tint check ([`tint_outliers`]), the one with the
+/// lower colour error is kept when it explains the panorama clearly better than `found`
+/// ([`Placed::clearly_better`]): the pass may shift objects for the colour model's noise.
 fn residual_search<F: Field>(
     target: &Target<F>,
     models: &[ObjectModel],
@@ -549,13 +552,18 @@ fn residual_search<F: Field>(
     let scene = placed_scene(target, models, &found, config);
     let fresh = pruned_hypotheses(target, &scene, models, &found, floor, config);
     let wider: Vec<Hypothesis> = pool.iter().chain(&fresh).copied().collect();
-    let (candidate, _) = search_on(target, models, fresh, &wider, found.clone(), config);
-    let candidate = tint_outliers(target, models, candidate, config);
-    if scene.clearly_better(&placed_scene(target, models, &candidate, config), config) {
-        candidate
-    } else {
-        found
-    }
+    let tint = consensus_tint(target, models, &found, config);
+    let added = greedy(target, models, fresh, found.clone(), tint, config);
+    let moved = revisit(target, models, &wider, added.clone(), tint, config);
+    [added, moved]
+        .into_iter()
+        .map(|candidate| {
+            let candidate = tint_outliers(target, models, candidate, config);
+            (placed_scene(target, models, &candidate, config), candidate)
+        })
+        .filter(|(candidate_scene, _)| scene.clearly_better(candidate_scene, config))
+        .min_by(|a, b| a.0.total_error().total_cmp(&b.0.total_error()))
+        .map_or(found, |(_, candidate)| candidate)
 }
 
 /// The models with their clouds' colours under the panorama's light as the empty room shows it (its
@@ -1086,12 +1094,15 @@ fn contenders<F: Field>(
 }
 
 /// Takes the best hypothesis over all models while one explains enough, refining and committing each,
-/// in the scene of the objects `found` already holds.
+/// in the scene of the objects `found` already holds. With the placed objects' consensus `tint`
+/// ([`consensus_tint`]), a hypothesis that needs a tint of its own ([`agrees_with_tint`]) is not
+/// placed: the tint check would take it out again, and it would keep out the object that belongs there.
 fn greedy<F: Field>(
     target: &Target<F>,
     models: &[ObjectModel],
     mut pool: Vec<Hypothesis>,
     mut found: Vec<Found>,
+    tint: Option<[f64; 3]>,
     config: &SearchConfig,
 ) -> Vec<Found> {
     let mut placed = placed_scene(target, models, &found, config);
@@ -1134,6 +1145,9 @@ fn greedy<F: Field>(
             continue;
         };
         let model = &models[m];
+        if tint.is_some_and(|t| !agrees_with_tint(target, &placed, model, &pose, t, config)) {
+            continue;
+        }
         placed.add(target, model, &pose, config);
         let id = free_id(model, &found);
         used[m] += 1;
@@ -1264,8 +1278,8 @@ fn search_on<F: Field>(
     start: Vec<Found>,
     config: &SearchConfig,
 ) -> (Vec<Found>, Placed) {
-    let found = greedy(target, models, hypotheses, start, config);
-    let found = revisit(target, models, pool, found, config);
+    let found = greedy(target, models, hypotheses, start, None, config);
+    let found = revisit(target, models, pool, found, None, config);
     let scene = placed_scene(target, models, &found, config);
     (found, scene)
 }
@@ -1304,12 +1318,14 @@ fn take_outs<F: Field>(
 /// Each placed object again, in the scene of all the others: later objects may explain its pixels
 /// better, or show it was put in the wrong place. Its pose is searched again from where it stands
 /// (also turned by a quarter and a half turn, unless it hangs on a wall) and from the model's best
-/// hypotheses; it keeps the best refined pose, or leaves the scene when none is accepted any more.
+/// hypotheses; it keeps the best refined pose (of those that agree with `tint`, when given:
+/// [`agrees_with_tint`]), or leaves the scene when none is accepted any more.
 fn revisit<F: Field>(
     target: &Target<F>,
     models: &[ObjectModel],
     pool: &[Hypothesis],
     mut found: Vec<Found>,
+    tint: Option<[f64; 3]>,
     config: &SearchConfig,
 ) -> Vec<Found> {
     let mut k = 0;
@@ -1341,11 +1357,15 @@ fn revisit<F: Field>(
                 .into_iter()
                 .map(|i| own[i]),
         );
-        let best = starts
+        let mut refined: Vec<(Pose, (f64, usize, f64))> = starts
             .par_iter()
             .map(|h| refine(target, &placed, model, &h.pose, config))
             .filter(|(_, s)| accepted(s, config))
-            .max_by(|a, b| a.1.0.total_cmp(&b.1.0));
+            .collect();
+        refined.sort_by(|a, b| b.1.0.total_cmp(&a.1.0));
+        let best = refined.into_iter().find(|(pose, _)| {
+            tint.is_none_or(|t| agrees_with_tint(target, &placed, model, pose, t, config))
+        });
         match best {
             Some((pose, (s, tp, _))) => {
                 found[k].object_to_world = pose.to_rows();
@@ -1511,7 +1531,7 @@ fn tint_outliers<F: Field>(
                 || holds_under_tint(
                     target,
                     &models[found[k].model],
-                    &found[k],
+                    &found[k].pose(),
                     &standings[k],
                     median,
                     config,
@@ -1541,9 +1561,69 @@ fn tint_strays(tints: &[Option<[f64; 3]>], outlier: f64) -> Option<([f64; 3], Ve
     });
     let strays = tints
         .iter()
-        .map(|t| t.is_some_and(|t| (0..3).any(|c| (t[c] / median[c]).ln().abs() > outlier.ln())))
+        .map(|t| t.is_some_and(|t| strays_from(t, median, outlier)))
         .collect();
     Some((median, strays))
+}
+
+/// Whether `tint` strays from `median` by more than the factor `outlier` in some channel.
+fn strays_from(tint: [f64; 3], median: [f64; 3], outlier: f64) -> bool {
+    (0..3).any(|c| (tint[c] / median[c]).ln().abs() > outlier.ln())
+}
+
+/// The median tint of the placed objects of `found` ([`tint_strays`]); `None` without the tint check
+/// or with too few objects to trust it.
+fn consensus_tint<F: Field>(
+    target: &Target<F>,
+    models: &[ObjectModel],
+    found: &[Found],
+    config: &SearchConfig,
+) -> Option<[f64; 3]> {
+    let outlier = config.tint_outlier?;
+    let tints: Vec<Option<[f64; 3]>> = (0..found.len())
+        .into_par_iter()
+        .map(|k| standing(target, models, found, k, config).tint)
+        .collect();
+    tint_strays(&tints, outlier).map(|(median, _)| median)
+}
+
+/// Whether `model` at `pose`, placed into the scene `placed`, shares the placed objects' `tint`: its
+/// own tint strays from it by no more than [`SearchConfig::tint_outlier`]. Holding under that tint
+/// ([`holds_under_tint`]) is not enough for a newcomer: on living a0_l0 a floor lamp 4 m from where
+/// it stands, in the light of a corner lamp the room does not show, needed a tint of its own and still
+/// held under the others', where the true lamp shows 100 pixels.
+fn agrees_with_tint<F: Field>(
+    target: &Target<F>,
+    placed: &Placed,
+    model: &ObjectModel,
+    pose: &Pose,
+    tint: [f64; 3],
+    config: &SearchConfig,
+) -> bool {
+    let Some(outlier) = config.tint_outlier else {
+        return true;
+    };
+    let (_, own) = scored_tint(target, placed, model, pose, config);
+    own.is_none_or(|own| !strays_from(own, tint, outlier))
+}
+
+/// [`score`] of `model` at `pose` in front of the scene `placed`, and its tint: its fitted gain over
+/// the gain's geometric mean, per channel (`None` where it explains no pixel).
+fn scored_tint<F: Field>(
+    target: &Target<F>,
+    placed: &Placed,
+    model: &ObjectModel,
+    pose: &Pose,
+    config: &SearchConfig,
+) -> ((f64, usize, f64), Option<[f64; 3]>) {
+    let mut buf = ZBuffer::default();
+    let sil = silhouette(target, &model.fine, pose, &placed.depth, &mut buf);
+    let (s, tone) = score(target, placed, &sil, config);
+    let level = (tone.gain[0] * tone.gain[1] * tone.gain[2]).cbrt();
+    (
+        s,
+        (s.1 > 0 && level > 0.0).then(|| tone.gain.map(|g| g / level)),
+    )
 }
 
 /// A placed object as it stands among the others: their scene, its score there (as
@@ -1568,11 +1648,7 @@ fn standing<F: Field>(
     let others = placed_scene(target, models, &rest, config);
     let (f, model) = (&found[k], &models[found[k].model]);
     let pose = f.pose();
-    let mut buf = ZBuffer::default();
-    let sil = silhouette(target, &model.fine, &pose, &others.depth, &mut buf);
-    let (s, tone) = score(target, &others, &sil, config);
-    let level = (tone.gain[0] * tone.gain[1] * tone.gain[2]).cbrt();
-    let tint = (s.1 > 0 && level > 0.0).then(|| tone.gain.map(|g| g / level));
+    let (s, tint) = scored_tint(target, &others, model, &pose, config);
     let score = if others.collides(model, &pose, config) {
         (0.0, 0, 0.0)
     } else {
@@ -1585,13 +1661,13 @@ fn standing<F: Field>(
     }
 }
 
-/// Whether `f` (of `model`), its colours under `tint` and its own tint held within
+/// Whether `model` at `pose`, its colours under `tint` and its own tint held within
 /// [`SearchConfig::tint_band`] of it, is still accepted where it stands among the others, and keeps
 /// [`SearchConfig::tint_retain`] of the score its own tint gives it there.
 fn holds_under_tint<F: Field>(
     target: &Target<F>,
     model: &ObjectModel,
-    f: &Found,
+    pose: &Pose,
     standing: &Standing,
     tint: [f64; 3],
     config: &SearchConfig,
@@ -1609,11 +1685,10 @@ fn holds_under_tint<F: Field>(
         max_chroma: config.tint_band,
         ..config.clone()
     };
-    let pose = f.pose();
     let mut buf = ZBuffer::default();
-    let sil = silhouette(target, &tinted, &pose, &standing.others.depth, &mut buf);
+    let sil = silhouette(target, &tinted, pose, &standing.others.depth, &mut buf);
     let (s, _) = score_toned(target, &standing.others, &sil, config, &band);
-    let shared = misfit_discounted(s, target, model, &pose, config);
+    let shared = misfit_discounted(s, target, model, pose, config);
     accepted(&shared, config) && shared.0 >= config.tint_retain * standing.score.0
 }
 
@@ -1757,6 +1832,8 @@ fn shifted(pose: &Pose, d: DVec3) -> Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cloud::surface_cloud;
+    use neuroom_field::AnalyticField;
 
     fn model(half: Vec3) -> ObjectModel {
         ObjectModel {
@@ -2043,5 +2120,90 @@ mod tests {
         // ends taken 7 and 30 cm.
         let turned = room_misfit(&room, &shelf, &at(-55.0, 3.55, 3.36));
         assert!(turned > 0.3, "{turned}");
+    }
+
+    /// A grey box standing in a plain room, its colours in the panorama tinted by `tint` (the room's
+    /// not), seen from 1.4 m high: the room, the view, the box's model, the camera and the box's pose.
+    fn tinted_box(tint: Vec3) -> (Scene<AnalyticField>, View, ObjectModel, Pose, Pose) {
+        use neuroom_field::{AnalyticColor, CodeSet};
+        use neuroom_render::{Background, InstanceCodes, Model, RenderConfig, SceneObject};
+        let (centre, half) = (Vec3::new(2.0, 1.5, 1.3), Vec3::new(2.0, 1.5, 1.3));
+        let room = AnalyticField::RoomShell {
+            centre,
+            half,
+            color: AnalyticColor::Position {
+                origin: centre,
+                scale: 3.0,
+            },
+        };
+        let grey = Vec3::splat(0.5);
+        let box_half = Vec3::new(0.3, 0.2, 0.25);
+        let cuboid = |rgb: Vec3| AnalyticField::Cuboid {
+            centre: Vec3::ZERO,
+            half: box_half,
+            color: AnalyticColor::Constant(rgb),
+        };
+        let pose = Pose::from_yaw_translation(0.5, DVec3::new(2.7, 2.0, box_half.z as f64));
+        let camera = Pose::new(DMat3::IDENTITY, DVec3::new(1.5, 1.4, 1.4));
+        let scene = |objects: Vec<SceneObject>| Scene {
+            models: vec![
+                Model {
+                    field: room.clone(),
+                    inv_s: 400.0,
+                },
+                Model {
+                    field: cuboid(grey * tint),
+                    inv_s: 400.0,
+                },
+            ],
+            background: Background {
+                model: 0,
+                bounds_min: centre - half - Vec3::splat(0.05),
+                bounds_max: centre + half + Vec3::splat(0.05),
+                codes: InstanceCodes::default(),
+                tone: neuroom_render::Tone::IDENTITY,
+            },
+            objects,
+        };
+        let width = 128;
+        let config = RenderConfig::default();
+        let with_box = scene(vec![SceneObject::new(1, 1, &pose, box_half)]);
+        let cam = neuroom_core::camera::Equirect::new(width, width / 2).unwrap();
+        let (query, _, _) = neuroom_render::render_image(&with_box, &cam, &camera, &config);
+        let empty = scene(Vec::new());
+        let (room_rgb, depth) = crate::render_background(&empty, &camera, width as usize, &config);
+        let view = View {
+            query,
+            empty: room_rgb,
+            empty_depth: depth,
+            seen: None,
+        };
+        let cloud = |spacing| surface_cloud(&cuboid(grey), box_half, spacing, CodeSet::default());
+        let model = ObjectModel {
+            coarse: cloud(0.04),
+            fine: cloud(0.025),
+            ..model(box_half)
+        };
+        (empty, view, model, camera, pose)
+    }
+
+    #[test]
+    fn a_placement_must_share_the_tint_the_placed_objects_agree_on() {
+        let config = SearchConfig::default();
+        for (tint, agrees) in [(Vec3::ONE, true), (Vec3::new(1.3, 1.0, 0.75), false)] {
+            let (empty, view, model, camera, pose) = tinted_box(tint);
+            let models = [model];
+            let input = SearchInput {
+                empty: &empty,
+                view: &view,
+                camera_to_world: camera,
+                detections: &[],
+                models: &models,
+            };
+            let target = Target::new(&input, &config);
+            let placed = Placed::nothing(&target);
+            let said = agrees_with_tint(&target, &placed, &models[0], &pose, [1.0; 3], &config);
+            assert_eq!(said, agrees, "tint {tint}");
+        }
     }
 }
