@@ -544,7 +544,7 @@ fn pruned_hypotheses<F: Field>(
 /// the tint check took objects from would otherwise be taken again first. After the tint check
 /// ([`tint_outliers`]) the placements are kept when they explain the panorama clearly better than
 /// `found` ([`Placed::clearly_better`]). Then a pass over the objects placed before them (from the old
-/// and the new hypotheses, these polished ([`polish`]), [`SearchConfig::residual_contenders_per_model`]
+/// and the new hypotheses, these polished ([`polished`]), [`SearchConfig::residual_contenders_per_model`]
 /// of them per model, under the same gate), kept when it lowers the colour error: each of its moves was accepted on its own pixels, and a
 /// chair moved 1.4 m to where it stands gains 4 over the 1400 pixels it changes. The newcomers stay
 /// where the greedy placement put them: on living a0_l0 the pass took the floor lamp from where it
@@ -599,7 +599,10 @@ fn residual_search<F: Field>(
     }
 }
 
-/// `hypotheses`, each moved to where its coarse score in the scene `placed` peaks nearby ([`polish`]).
+/// `hypotheses`, each moved to where its coarse score in the scene `placed` peaks nearby (one round of
+/// [`descend`] on the coarse cloud): the grid's 30° headings left bedroom a1_l1's chair 16° and 6 cm off
+/// its nearest hypothesis, which scored 11.8 there (33.8 polished, 48.9 where the chair stands), below
+/// the three best that a pass over the objects refines.
 fn polished<F: Field>(
     target: &Target<F>,
     placed: &Placed,
@@ -610,7 +613,16 @@ fn polished<F: Field>(
     hypotheses
         .into_par_iter()
         .map(|h| Hypothesis {
-            pose: polish(target, placed, &models[h.model], &h.pose, config).0,
+            pose: descend(
+                target,
+                placed,
+                &models[h.model],
+                &h.pose,
+                true,
+                &POLISH_STEPS,
+                config,
+            )
+            .0,
             ..h
         })
         .collect()
@@ -1894,21 +1906,8 @@ fn refine<F: Field>(
 /// The (metres, degrees) steps of [`refine`], coarse to fine.
 const REFINE_STEPS: [(f64, f64); 4] = [(0.1, 15.0), (0.05, 8.0), (0.02, 3.0), (0.01, 1.0)];
 
-/// The step of [`polish`]: a third of a grid cell, a quarter of the heading grid's step.
+/// The step of [`polished`]: a third of a grid cell, a quarter of the heading grid's step.
 const POLISH_STEPS: [(f64, f64); 1] = [(0.05, 8.0)];
-
-/// A hypothesis moved to where its coarse score peaks nearby: the grid's 30° headings left bedroom
-/// a1_l1's chair 16° and 6 cm off its nearest hypothesis, which scored 11.8 there (33.8 polished, 48.9
-/// where the chair stands), below the three best that a pass over the objects refines.
-fn polish<F: Field>(
-    target: &Target<F>,
-    placed: &Placed,
-    model: &ObjectModel,
-    start: &Pose,
-    config: &SearchConfig,
-) -> (Pose, (f64, usize, f64)) {
-    descend(target, placed, model, start, true, &POLISH_STEPS, config)
-}
 
 /// Coordinate descent on (x, y, z, yaw) over `steps` (metres, degrees), scored with the coarse or the
 /// fine cloud.
