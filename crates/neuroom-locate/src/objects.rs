@@ -308,9 +308,10 @@ impl Placed {
 /// bottom within a few centimetres of it.
 fn rests_on(base: &OrientedBox, model: &ObjectModel, pose: &Pose) -> bool {
     let local = base.pose.inverse().transform_point(pose.translation);
-    let half = 0.5 * base.size - DVec3::splat(support_inset(model) as f64);
-    local.x.abs() <= half.x
-        && local.y.abs() <= half.y
+    let half = 0.5 * base.size;
+    let inset = support_inset(model) as f64;
+    local.x.abs() <= half.x - inset
+        && local.y.abs() <= half.y - inset
         && (local.z - half.z - model.half.z as f64).abs() < SUPPORT_TOLERANCE
 }
 
@@ -2177,6 +2178,9 @@ mod tests {
         let on_edge = Pose::from_yaw_translation(0.0, table_at(0.29, 0.0));
         assert!(placed.supports(&lamp, &near_edge));
         assert!(!placed.supports(&lamp, &on_edge));
+        // The inset narrows the top face, not the height it rests at: 4 cm above it is within reach.
+        let above = Pose::from_yaw_translation(1.0, DVec3::new(1.1, 0.9, 0.69));
+        assert!(placed.supports(&lamp, &above));
         assert!(placed.supports(
             &lamp,
             &Pose::from_yaw_translation(2.0, DVec3::new(0.75, 1.2, 0.65))
