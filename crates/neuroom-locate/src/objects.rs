@@ -541,15 +541,15 @@ fn pruned_hypotheses<F: Field>(
 /// objects: the pool was pruned in the empty room, where the placed objects' pixels draw every model's
 /// best hypotheses to them, so a model may have had none near where it stands (a chair 0.8 m from its
 /// nearest hypothesis on bedroom a1_l1). Greedy placement of the models still short of instances
-/// follows, under the [`TintGate`]: the wrong places
-/// the tint check took objects from would otherwise be taken again first. After the tint check
-/// ([`tint_outliers`]) the placements are kept when they explain the panorama clearly better than
-/// `found` ([`Placed::clearly_better`]). Then a pass over the objects placed before them (from the old
-/// and the new hypotheses, these polished ([`polished`]), [`SearchConfig::residual_contenders_per_model`]
-/// of them per model, under the same gate), kept when it lowers the colour error: each of its moves was accepted on its own pixels, and a
-/// chair moved 1.4 m to where it stands gains 4 over the 1400 pixels it changes. The newcomers stay
-/// where the greedy placement put them: on living a0_l0 the pass took the floor lamp from where it
-/// stands (6 over 105 pixels) back to a corner lamp's light 4 m away (66).
+/// follows, under the [`TintGate`]: the wrong places the tint check took objects from would otherwise
+/// be taken again first. After the tint check ([`tint_outliers`]) the placements are kept when they
+/// explain the panorama clearly better than `found` ([`Placed::clearly_better`]). Then a pass over the
+/// objects placed before them (from the old and the new hypotheses, these [`polished`],
+/// [`SearchConfig::residual_contenders_per_model`] of them per model, under the same gate), kept when
+/// it lowers the colour error: each of its moves was accepted on its own pixels, and a chair moved
+/// 1.4 m to where it stands gains 4 over the 1400 pixels it changes. The newcomers stay where the
+/// greedy placement put them: on living a0_l0 the pass took the floor lamp from where it stands (6
+/// over 105 pixels) back to a corner lamp's light 4 m away (66).
 fn residual_search<F: Field>(
     target: &Target<F>,
     models: &[ObjectModel],
@@ -2347,23 +2347,33 @@ mod tests {
         (empty, view, model, camera, pose)
     }
 
+    /// Runs `check` on the [`tinted_box`] of `tint`: its target, the empty room's scene, the box's model
+    /// and its pose.
+    fn in_tinted_view(
+        tint: Vec3,
+        check: impl FnOnce(&Target<AnalyticField>, &Placed, &ObjectModel, &Pose),
+    ) {
+        let (empty, view, model, camera, pose) = tinted_box(tint);
+        let models = [model];
+        let input = SearchInput {
+            empty: &empty,
+            view: &view,
+            camera_to_world: camera,
+            detections: &[],
+            models: &models,
+        };
+        let target = Target::new(&input, &SearchConfig::default());
+        check(&target, &Placed::nothing(&target), &models[0], &pose);
+    }
+
     #[test]
     fn a_placement_must_share_the_tint_the_placed_objects_agree_on() {
         let config = SearchConfig::default();
         for (tint, agrees) in [(Vec3::ONE, true), (Vec3::new(1.3, 1.0, 0.75), false)] {
-            let (empty, view, model, camera, pose) = tinted_box(tint);
-            let models = [model];
-            let input = SearchInput {
-                empty: &empty,
-                view: &view,
-                camera_to_world: camera,
-                detections: &[],
-                models: &models,
-            };
-            let target = Target::new(&input, &config);
-            let placed = Placed::nothing(&target);
-            let said = agrees_with_tint(&target, &placed, &models[0], &pose, [1.0; 3], &config);
-            assert_eq!(said, agrees, "tint {tint}");
+            in_tinted_view(tint, |target, placed, model, pose| {
+                let said = agrees_with_tint(target, placed, model, pose, [1.0; 3], &config);
+                assert_eq!(said, agrees, "tint {tint}");
+            });
         }
     }
 
@@ -2376,28 +2386,19 @@ mod tests {
         };
         let mut gate = neutral();
         for (tint, admitted) in [(Vec3::new(1.3, 1.0, 0.75), false), (Vec3::ONE, true)] {
-            let (empty, view, model, camera, pose) = tinted_box(tint);
-            let models = [model];
-            let input = SearchInput {
-                empty: &empty,
-                view: &view,
-                camera_to_world: camera,
-                detections: &[],
-                models: &models,
-            };
-            let target = Target::new(&input, &config);
-            let placed = Placed::nothing(&target);
-            let nearby = shifted(&pose, DVec3::new(0.1, 0.0, 0.0));
-            assert_eq!(
-                neutral().allows(&target, &placed, 0, &models[0], &pose, &config),
-                admitted
-            );
-            assert!(!gate.admits(&target, &placed, 0, &models[0], &nearby, &config));
-            // Another model may still stand there.
-            assert_eq!(
-                gate.allows(&target, &placed, 1, &models[0], &pose, &config),
-                admitted
-            );
+            in_tinted_view(tint, |target, placed, model, pose| {
+                let nearby = shifted(pose, DVec3::new(0.1, 0.0, 0.0));
+                assert_eq!(
+                    neutral().allows(target, placed, 0, model, pose, &config),
+                    admitted
+                );
+                assert!(!gate.admits(target, placed, 0, model, &nearby, &config));
+                // Another model may still stand there.
+                assert_eq!(
+                    gate.allows(target, placed, 1, model, pose, &config),
+                    admitted
+                );
+            });
         }
     }
 }
