@@ -52,18 +52,31 @@ pub fn fit_panorama(
     };
     let result = fit_arrangement(models, &image, &start, &hints, config, progress)?;
     let report = result.report();
-    let outputs = output_paths(out);
     let name = panorama
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    formats::write_arrangement(out, &solved_arrangement(&start, &report, &name))?;
-    formats::atomic_write(&outputs.report, &serde_json::to_vec_pretty(&report)?)?;
+    let solved = solved_arrangement(&start, &report, &name);
+    let outputs = write_fit(out, &solved, &report, &result)?;
+    Ok((outputs, report))
+}
+
+/// Writes a fit's outputs: the arrangement `solved` to `out`, the fit's report to `<out stem>.fit.json`
+/// and its before/after renders beside it.
+pub fn write_fit(
+    out: &Path,
+    solved: &Arrangement,
+    report: &FitReport,
+    result: &FitResult<NeusField>,
+) -> anyhow::Result<FitOutputs> {
+    let outputs = output_paths(out);
+    formats::write_arrangement(out, solved)?;
+    formats::atomic_write(&outputs.report, &serde_json::to_vec_pretty(report)?)?;
     if let (Some(before), Some(after)) = (&result.before, &result.after) {
         formats::write_rgb(&outputs.before, before)?;
         formats::write_rgb(&outputs.after, after)?;
     }
-    Ok((outputs, report))
+    Ok(outputs)
 }
 
 /// Fits the models in `models` to `image` from the arrangement `start` (camera and initial poses), with
