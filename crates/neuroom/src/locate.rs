@@ -763,7 +763,55 @@ pub fn keep_better_poses(
     };
     let error =
         |a: &Arrangement| arrangement_error(&input, &placed_objects(ctx, a), &config.search);
-    back_where_better(initial, solved, &error)
+    let kept = back_where_better(initial, solved.clone(), &error);
+    let supporters = |id: u16| -> Vec<u16> {
+        let model = ctx.objects.iter().find(|m| m.ids.contains(&id));
+        match model.map(|m| &m.placement) {
+            Some(Placement::On(supporter)) => ctx.objects[*supporter].ids.clone(),
+            _ => Vec::new(),
+        }
+    };
+    seated_on_supporters(initial, &solved, kept, &supporters)
+}
+
+/// `kept` (objects at their pose in `initial` or in `solved`) with each object that stands on another
+/// (`supporters` gives the ids of the instances it may stand on) raised or lowered by the height its
+/// supporter changed between the arrangement its own pose comes from and `kept`: it rests on the top
+/// it rested on there, not a few millimetres inside or above it.
+fn seated_on_supporters(
+    initial: &Arrangement,
+    solved: &Arrangement,
+    mut kept: Arrangement,
+    supporters: &dyn Fn(u16) -> Vec<u16>,
+) -> Arrangement {
+    let height = |a: &Arrangement, id: u16| {
+        a.objects
+            .iter()
+            .find(|o| o.id == id)
+            .map(|o| o.object_to_world.translation)
+    };
+    let settled = kept.clone();
+    for o in &mut kept.objects {
+        let source = if o.extra.contains_key("initial_pose") {
+            initial
+        } else {
+            solved
+        };
+        let at = o.object_to_world.translation;
+        let under = supporters(o.id)
+            .into_iter()
+            .filter_map(|s| Some((s, height(source, s)?)))
+            .min_by(|(_, a), (_, b)| {
+                let d = |p: &glam::DVec3| (p.x - at.x).hypot(p.y - at.y);
+                d(a).total_cmp(&d(b))
+            });
+        if let Some((s, before)) = under
+            && let Some(now) = height(&settled, s)
+        {
+            o.object_to_world.translation.z += now.z - before.z;
+        }
+    }
+    kept
 }
 
 /// `solved` with each object, in turn, put back at its pose in `initial` where that lowers `error`
@@ -998,5 +1046,46 @@ mod tests {
             .map(|o| o.extra.contains_key("initial_pose"))
             .collect();
         assert_eq!(marked, [false, true, true]);
+    }
+
+    #[test]
+    fn an_object_rests_on_its_supporter_at_the_height_the_supporter_keeps() {
+        // Object 1 is a cabinet, 2 and 3 stand on it; 4 stands on nothing.
+        let supporters = |id: u16| if matches!(id, 2 | 3) { vec![1] } else { vec![] };
+        let at = |zs: [f64; 4]| {
+            let mut a = arrangement(&[0.0, 0.1, -0.1, 2.0]);
+            for (o, z) in a.objects.iter_mut().zip(zs) {
+                o.object_to_world.translation.z = z;
+            }
+            a
+        };
+        let initial = at([0.40, 0.90, 0.90, 0.3]);
+        let solved = at([0.42, 0.91, 0.93, 0.5]);
+        let mark = |a: &mut Arrangement, id: u16, z: f64| {
+            let o = a.objects.iter_mut().find(|o| o.id == id).unwrap();
+            o.object_to_world.translation.z = z;
+            o.extra.insert("initial_pose".into(), true.into());
+        };
+        // The cabinet keeps the fit's height: object 2, put back, rises with it; 3 keeps the fit's.
+        let mut kept = solved.clone();
+        mark(&mut kept, 2, 0.90);
+        mark(&mut kept, 4, 0.3);
+        let seated = seated_on_supporters(&initial, &solved, kept, &supporters);
+        let zs: Vec<f64> = seated
+            .objects
+            .iter()
+            .map(|o| o.object_to_world.translation.z)
+            .collect();
+        let want = [0.42, 0.92, 0.93, 0.3];
+        assert!(
+            zs.iter().zip(want).all(|(z, w)| (z - w).abs() < 1e-12),
+            "{zs:?}"
+        );
+        // The cabinet put back: object 3, at the fit's pose, comes down with it.
+        let mut kept = solved.clone();
+        mark(&mut kept, 1, 0.40);
+        let seated = seated_on_supporters(&initial, &solved, kept, &supporters);
+        let z3 = seated.objects[2].object_to_world.translation.z;
+        assert!((z3 - 0.91).abs() < 1e-12, "{z3}");
     }
 }
