@@ -742,9 +742,10 @@ fn placed_objects(ctx: &LocateContext, arrangement: &Arrangement) -> Vec<Found> 
 
 /// The fit's arrangement `solved`, with each object put back at its pose in `initial` where the
 /// panorama is then explained better by the object search's colour model ([`arrangement_error`], seen
-/// from `camera`), object by object in turn; such an object is marked `"initial_pose": true`. The fit's
-/// photometric loss under a changed light can drag an object that the search had placed well: on the
-/// office and living presets it moved the bookshelf 3–12 cm.
+/// from `camera`), object by object in turn; such an object is marked `"initial_pose": true`. An object
+/// standing on another is then seated on it ([`seated_on_supporters`]). The fit's photometric loss under
+/// a changed light can drag an object that the search had placed well: on the office and living presets
+/// it moved the bookshelf 3–12 cm.
 pub fn keep_better_poses(
     ctx: &LocateContext,
     query: &QueryImage,
@@ -784,7 +785,7 @@ fn seated_on_supporters(
     mut kept: Arrangement,
     supporters: &dyn Fn(u16) -> Vec<u16>,
 ) -> Arrangement {
-    let height = |a: &Arrangement, id: u16| {
+    let position = |a: &Arrangement, id: u16| {
         a.objects
             .iter()
             .find(|o| o.id == id)
@@ -800,13 +801,13 @@ fn seated_on_supporters(
         let at = o.object_to_world.translation;
         let under = supporters(o.id)
             .into_iter()
-            .filter_map(|s| Some((s, height(source, s)?)))
+            .filter_map(|s| Some((s, position(source, s)?)))
             .min_by(|(_, a), (_, b)| {
                 let d = |p: &glam::DVec3| (p.x - at.x).hypot(p.y - at.y);
                 d(a).total_cmp(&d(b))
             });
         if let Some((s, before)) = under
-            && let Some(now) = height(&settled, s)
+            && let Some(now) = position(&settled, s)
         {
             o.object_to_world.translation.z += now.z - before.z;
         }
