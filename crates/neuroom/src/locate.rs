@@ -616,7 +616,8 @@ pub fn locate(
             let report = result.report();
             let solved = crate::fit::solved_arrangement(&arrangement, &report, name);
             let camera = located[0].camera.pose();
-            let solved = keep_better_poses(&ctx, query, &camera, &arrangement, solved, config);
+            let view = object_view(&ctx, &query.sphere(), &camera, config);
+            let solved = keep_better_poses(&ctx, &view, &camera, &arrangement, solved, config);
             crate::fit::write_fit(out, &solved, &report, &result)?;
             true
         }
@@ -699,26 +700,35 @@ pub struct SearchObjective {
     pub truth: f64,
 }
 
-/// [`SearchObjective`] of `located` (found in `query`) against the arrangement `truth`.
+/// [`SearchObjective`] of `located` against the arrangement `truth`, with `view` its query at the
+/// found camera ([`object_view`]).
 fn search_objective(
     ctx: &LocateContext,
-    query: &QueryImage,
+    view: &View,
     located: &Located,
     truth: &Arrangement,
     config: &LocateConfig,
 ) -> SearchObjective {
-    let camera = located.camera.pose();
-    let view = object_view(ctx, &query.sphere(), &camera, config);
-    let input = SearchInput {
-        empty: &ctx.scene,
-        view: &view,
-        camera_to_world: camera,
-        detections: &[],
-        models: &ctx.objects,
-    };
+    let input = judging_input(ctx, view, located.camera.pose());
     SearchObjective {
         found: arrangement_error(&input, &located.found, &config.search),
         truth: arrangement_error(&input, &placed_objects(ctx, truth), &config.search),
+    }
+}
+
+/// The object search's input for judging whole arrangements ([`arrangement_error`]) in `view`, seen
+/// from `camera`: no detections.
+fn judging_input<'a>(
+    ctx: &'a LocateContext,
+    view: &'a View,
+    camera: Pose,
+) -> SearchInput<'a, NeusField> {
+    SearchInput {
+        empty: &ctx.scene,
+        view,
+        camera_to_world: camera,
+        detections: &[],
+        models: &ctx.objects,
     }
 }
 
@@ -741,27 +751,20 @@ fn placed_objects(ctx: &LocateContext, arrangement: &Arrangement) -> Vec<Found> 
 }
 
 /// The fit's arrangement `solved`, with each object put back at its pose in `initial` where the
-/// panorama is then explained better by the object search's colour model ([`arrangement_error`], seen
-/// from `camera`), object by object in turn; such an object is marked `"initial_pose": true`. An object
+/// panorama is then explained better by the object search's colour model ([`arrangement_error`] in
+/// `view`, the panorama at the found `camera`: [`object_view`]), object by object in turn; such an object is marked `"initial_pose": true`. An object
 /// standing on another is then seated on it ([`seated_on_supporters`]). The fit's photometric loss under
 /// a changed light can drag an object that the search had placed well: on the office and living presets
 /// it moved the bookshelf 3–12 cm.
 pub fn keep_better_poses(
     ctx: &LocateContext,
-    query: &QueryImage,
+    view: &View,
     camera: &Pose,
     initial: &Arrangement,
     solved: Arrangement,
     config: &LocateConfig,
 ) -> Arrangement {
-    let view = object_view(ctx, &query.sphere(), camera, config);
-    let input = SearchInput {
-        empty: &ctx.scene,
-        view: &view,
-        camera_to_world: *camera,
-        detections: &[],
-        models: &ctx.objects,
-    };
+    let input = judging_input(ctx, view, *camera);
     let error =
         |a: &Arrangement| arrangement_error(&input, &placed_objects(ctx, a), &config.search);
     let kept = back_where_better(initial, solved.clone(), &error);
@@ -898,19 +901,30 @@ pub fn bench_locate(
         let (initial, located) =
             locate_image(&ctx, &QueryImage::Panorama(image.clone()), &name, config)?;
         let initial_score = fit.map(|_| score_in_room(&ctx.room, &symmetries, &truth, &initial));
-        let query = QueryImage::Panorama(image);
-        let arrangement = match (fit, &query) {
-            (Some(fit), QueryImage::Panorama(image)) if !initial.objects.is_empty() => {
-                let result =
-                    crate::fit::fit_arrangement(models, image, &initial, &hints, fit, &mut |_| {})?;
+        let camera = located.camera.pose();
+        let query_view =
+            || object_view(&ctx, &SphereImage::panorama(image.clone()), &camera, config);
+        // The fit's check needs the query's view (timed with it); the objective below reuses it.
+        let mut view = None;
+        let arrangement = match fit {
+            Some(fit) if !initial.objects.is_empty() => {
+                let result = crate::fit::fit_arrangement(
+                    models,
+                    &image,
+                    &initial,
+                    &hints,
+                    fit,
+                    &mut |_| {},
+                )?;
                 let solved = crate::fit::solved_arrangement(&initial, &result.report(), &name);
-                let camera = located.camera.pose();
-                keep_better_poses(&ctx, &query, &camera, &initial, solved, config)
+                let checked = view.insert(query_view());
+                keep_better_poses(&ctx, checked, &camera, &initial, solved, config)
             }
             _ => initial,
         };
         let seconds = start.elapsed().as_secs_f64();
-        let objective = search_objective(&ctx, &query, &located, &truth, config);
+        let view = view.unwrap_or_else(query_view);
+        let objective = search_objective(&ctx, &view, &located, &truth, config);
         let score = PanoramaScore {
             panorama: name,
             camera_position_error_cm: 100.0
