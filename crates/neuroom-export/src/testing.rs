@@ -28,6 +28,14 @@ pub const ROOM_RADIUS: f32 = 1.1;
 pub const BALL_HALF: [f32; 3] = [0.25; 3];
 /// Half extents of the `stool` model's box; its surface is a ball of radius 0.16.
 pub const STOOL_HALF: [f32; 3] = [0.3, 0.2, 0.25];
+/// A `room.json` naming the tiny models' objects (`ball_1`, `ball_2`, `stool_3`), all on the floor.
+pub const TINY_ROOM_JSON: &str = r#"{"format": "neuroom.room/1", "name": "tiny",
+  "background": {"capture": "captures/background"},
+  "objects": [
+    {"id": 1, "name": "ball_1", "category": "ball", "capture": "captures/ball", "size": [0.4, 0.4, 0.4], "relations": ["floor"]},
+    {"id": 2, "name": "ball_2", "category": "ball", "capture": "captures/ball", "size": [0.4, 0.4, 0.4], "relations": ["floor"]},
+    {"id": 3, "name": "stool_3", "category": "stool", "capture": "captures/stool", "size": [0.32, 0.32, 0.32], "relations": ["floor"]}]}"#;
+
 /// Light code names, in row order.
 pub const LIGHT_NAMES: [&str; 3] = ["capture", "warm", "cold"];
 

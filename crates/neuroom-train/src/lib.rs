@@ -24,6 +24,7 @@ pub mod trainer;
 
 pub use config::{BudgetClock, ModelBudget, TrainConfig};
 pub use room::{
-    Manifest, ModelEntry, RoomModels, TrainError, TrainSummary, load_room_models, train_room,
+    MANIFEST_FILE, Manifest, ModelEntry, RoomModels, TrainError, TrainSummary, load_room_models,
+    train_room,
 };
 pub use trainer::{ModelKind, Trainer};

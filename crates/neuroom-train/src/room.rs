@@ -420,8 +420,11 @@ pub fn truth_chamfer(
     Ok(Some(chamfer(&learned, &truth, CHAMFER_SAMPLES)))
 }
 
+/// File name of the model manifest inside a model folder.
+pub const MANIFEST_FILE: &str = "manifest.json";
+
 fn write_manifest(dir: &Path, manifest: &Manifest) -> Result<(), TrainError> {
-    let path = dir.join("manifest.json");
+    let path = dir.join(MANIFEST_FILE);
     let text = serde_json::to_vec_pretty(manifest).map_err(|e| TrainError::File {
         path: path.clone(),
         message: e.to_string(),
@@ -461,7 +464,7 @@ impl RoomModels {
 
 /// Reads a room's model folder (`<models>/<room>`): the manifest and every model it lists.
 pub fn load_room_models(dir: &Path) -> Result<RoomModels, TrainError> {
-    let path = dir.join("manifest.json");
+    let path = dir.join(MANIFEST_FILE);
     let text = std::fs::read(&path).map_err(|e| TrainError::File {
         path: path.clone(),
         message: format!("cannot read: {e}"),

@@ -344,20 +344,13 @@ mod tests {
     use super::*;
     use glam::DVec3;
     use neuroom_core::formats::{write_arrangement, write_rgb};
-    use neuroom_export::testing::{tiny_arrangement, write_tiny_models};
-
-    const ROOM_JSON: &str = r#"{"format": "neuroom.room/1", "name": "tiny",
-        "background": {"capture": "captures/background"},
-        "objects": [
-          {"id": 1, "name": "ball_1", "category": "ball", "capture": "captures/ball", "size": [0.4, 0.4, 0.4], "relations": ["floor"]},
-          {"id": 2, "name": "ball_2", "category": "ball", "capture": "captures/ball", "size": [0.4, 0.4, 0.4], "relations": ["floor"]},
-          {"id": 3, "name": "stool_3", "category": "stool", "capture": "captures/stool", "size": [0.32, 0.32, 0.32], "relations": ["floor"]}]}"#;
+    use neuroom_export::testing::{TINY_ROOM_JSON, tiny_arrangement, write_tiny_models};
 
     /// A room folder whose only test panorama is the tiny models rendered at the truth, and the models.
     fn tiny_room(dir: &Path) -> (PathBuf, PathBuf) {
         let (room, models) = (dir.join("room"), dir.join("models"));
         std::fs::create_dir_all(room.join("panoramas")).unwrap();
-        std::fs::write(room.join("room.json"), ROOM_JSON).unwrap();
+        std::fs::write(room.join("room.json"), TINY_ROOM_JSON).unwrap();
         write_tiny_models(&models).unwrap();
         let truth = room.join("panoramas/tiny.json");
         write_arrangement(&truth, &tiny_arrangement()).unwrap();

@@ -50,7 +50,7 @@ pub fn build_identify_network(
     let room_json = read_room(room)?;
     let database = ensure_database(models, &Default::default(), &mut |_, _| {})?;
     let loaded = load_models(models)?;
-    let objects = object_models(&room_json, &loaded)?;
+    let objects = object_models(&room_json, &loaded, None)?;
     if objects.is_empty() {
         return Ok(None);
     }

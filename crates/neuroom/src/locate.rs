@@ -14,7 +14,7 @@ use neuroom_core::formats::{
 use neuroom_core::image::RgbImage;
 use neuroom_core::metrics::ArrangementScore;
 use neuroom_core::pose::Pose;
-use neuroom_field::{CodeSet, NeusField};
+use neuroom_field::{CodeSet, Codes, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
 use neuroom_identify::{DetectConfig, Network, NetworkDetector};
 use neuroom_locate::cloud::{FreeSpace, carve, surface_cloud};
@@ -32,7 +32,7 @@ use neuroom_locate::{
 use neuroom_render::RenderConfig;
 use neuroom_render::scene::{Background, Model, Scene};
 use neuroom_train::dataset::{PixelClass, Role, load_views};
-use neuroom_train::{ModelKind, RoomModels};
+use neuroom_train::{MANIFEST_FILE, ModelEntry, ModelKind, RoomModels};
 use serde::{Deserialize, Serialize};
 
 use crate::scene::load_models;
@@ -123,6 +123,12 @@ pub struct LocateConfig {
     pub network: DetectConfig,
     /// Pose hypotheses and their selection.
     pub search: SearchConfig,
+    /// Light code (by its name in the model manifest, e.g. `studio`) under which the object search
+    /// sees the objects' colours; `None`: the first capture lighting. Objects captured under a light
+    /// unlike the room's (a studio environment lighting them from all around, where the room's lamps
+    /// light them from above) may be told apart better under another of their learnt lights.
+    #[serde(default)]
+    pub object_light: Option<String>,
 }
 
 impl Default for LocateConfig {
@@ -138,6 +144,7 @@ impl Default for LocateConfig {
             detector: ResidualDetector::default(),
             network: DetectConfig::default(),
             search: SearchConfig::default(),
+            object_light: None,
         }
     }
 }
@@ -179,8 +186,13 @@ const CLOUD_MARGIN: f32 = 0.01;
 
 /// Searchable object models: one per object model of the manifest, with coloured surface clouds and
 /// where it may stand from room.json's relation hints (`on:NAME`, else `floor`, else `wall`; floor by
-/// default).
-pub fn object_models(room: &Room, loaded: &RoomModels) -> anyhow::Result<Vec<ObjectModel>> {
+/// default). The clouds are coloured under the light code named `light` (see
+/// [`LocateConfig::object_light`]), or the first capture lighting.
+pub fn object_models(
+    room: &Room,
+    loaded: &RoomModels,
+    light: Option<&str>,
+) -> anyhow::Result<Vec<ObjectModel>> {
     let entries: Vec<usize> = (0..loaded.manifest.models.len())
         .filter(|&k| loaded.manifest.models[k].kind == ModelKind::Object)
         .collect();
@@ -211,8 +223,12 @@ pub fn object_models(room: &Room, loaded: &RoomModels) -> anyhow::Result<Vec<Obj
             let extent = (half + CLOUD_MARGIN).min(bounds);
             let field = &loaded.fields[k];
             let free = free_space(room, first, &entry.ids)?;
+            let codes = CodeSet {
+                light: Codes::Fixed(light_code(entry, light)?),
+                ..CodeSet::default()
+            };
             let cloud = |spacing: f32| {
-                let cloud = surface_cloud(field, extent, spacing, CodeSet::default());
+                let cloud = surface_cloud(field, extent, spacing, codes);
                 carve(cloud, &free, CARVE_TOLERANCE)
             };
             Ok(ObjectModel {
@@ -225,6 +241,23 @@ pub fn object_models(room: &Room, loaded: &RoomModels) -> anyhow::Result<Vec<Obj
             })
         })
         .collect()
+}
+
+/// The index of the light code named `name` in `entry` (code 0, the first capture lighting, for
+/// `None`); an error naming the model and the codes it has when it has no such code.
+fn light_code(entry: &ModelEntry, name: Option<&str>) -> anyhow::Result<u32> {
+    let Some(name) = name else {
+        return Ok(0);
+    };
+    let names = &entry.light_codes.names;
+    let index = names.iter().position(|n| n == name).with_context(|| {
+        format!(
+            "model `{}` has no light code `{name}` (it has {})",
+            entry.name,
+            names.join(", ")
+        )
+    })?;
+    Ok(u32::try_from(index)?)
 }
 
 /// How far in front of what a capture frame saw a cloud point must lie to be carved away (metres).
@@ -296,7 +329,8 @@ impl LocateContext {
         let room = read_room(room)?;
         let database = ensure_database(models, &config.database, &mut |_, _| {})?;
         let loaded = load_models(models)?;
-        let objects = object_models(&room, &loaded)?;
+        let objects = object_models(&room, &loaded, config.object_light.as_deref())
+            .with_context(|| models.join(MANIFEST_FILE).display().to_string())?;
         let scene = empty_scene(&loaded)?;
         let network = match config.detection {
             DetectorChoice::Residual => None,
@@ -1035,6 +1069,36 @@ mod tests {
             lighting: serde_json::Value::Null,
             extra: Default::default(),
         }
+    }
+
+    #[test]
+    fn the_object_search_sees_the_objects_under_the_light_code_it_names() {
+        let room = neuroom_core::formats::parse_room(
+            Path::new("room.json"),
+            neuroom_export::testing::TINY_ROOM_JSON.as_bytes(),
+        )
+        .unwrap();
+        let models = neuroom_export::testing::tiny_models();
+        let colours = |light| {
+            object_models(&room, &models, light).unwrap()[0]
+                .coarse
+                .colors
+                .clone()
+        };
+        let capture = colours(None);
+        assert!(!capture.is_empty());
+        assert_eq!(capture, colours(Some("capture")));
+        assert_ne!(capture, colours(Some("warm")));
+        let message = format!(
+            "{:#}",
+            object_models(&room, &models, Some("sunset")).unwrap_err()
+        );
+        assert!(
+            message.contains("`ball`")
+                && message.contains("`sunset`")
+                && message.contains("capture, warm, cold"),
+            "{message}"
+        );
     }
 
     #[test]

@@ -68,6 +68,12 @@ struct LocateArgs {
     /// regions named by the network) or `auto` (the network when present).
     #[arg(long)]
     detector: Option<neuroom::locate::DetectorChoice>,
+    /// Light code (its name in the model manifest, e.g. `studio`) under which the object search sees
+    /// the objects' colours; by default their first capture lighting. For objects captured under a light
+    /// unlike the room's: on blender-lite (objects lit by a studio environment, the room by ceiling
+    /// panels) `studio` placed them better, on the synthetic presets a little worse (see the README).
+    #[arg(long)]
+    object_light: Option<String>,
     /// Also run the holistic fit from the initial poses (as `neuroom locate` does) and score its poses.
     #[arg(long, conflicts_with = "photos")]
     fit: bool,
@@ -294,6 +300,7 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
     let config = neuroom::locate::LocateConfig {
         match_shading: !a.no_shading,
         detection: a.detector.unwrap_or(defaults.detection),
+        object_light: a.object_light.clone(),
         ..defaults
     };
     let fit = neuroom_fit::FitConfig {

@@ -45,6 +45,12 @@ pub struct Args {
     /// present).
     #[arg(long)]
     detector: Option<neuroom::locate::DetectorChoice>,
+    /// Light code (its name in the model manifest, e.g. `studio`) under which the object search sees
+    /// the objects' colours; by default their first capture lighting. For objects captured under a light
+    /// unlike the room's: on blender-lite (objects lit by a studio environment, the room by ceiling
+    /// panels) `studio` placed them better, on the synthetic presets a little worse (see the README).
+    #[arg(long)]
+    object_light: Option<String>,
     /// Stop after the initial poses (no holistic fit).
     #[arg(long)]
     no_fit: bool,
@@ -67,6 +73,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let defaults = LocateConfig::default();
     let config = LocateConfig {
         detection: args.detector.unwrap_or(defaults.detection),
+        object_light: args.object_light.clone(),
         ..defaults
     };
     let mut bars = StageBars::new();
