@@ -9,6 +9,7 @@ use neuroom_core::formats::{self, Arrangement, read_arrangement, read_rgb, read_
 use neuroom_core::image::RgbImage;
 use neuroom_field::NeusField;
 use neuroom_fit::{FitConfig, FitReport, FitResult, Hint, IterationLog, ObjectInit, RoomBox, fit};
+use neuroom_train::{MANIFEST_FILE, ModelKind};
 
 use crate::scene::{build_scene, load_models};
 
@@ -50,7 +51,7 @@ pub fn fit_panorama(
         Some(r) => room_hints(r)?,
         None => Vec::new(),
     };
-    let result = fit_arrangement(models, &image, &start, &hints, config, progress)?;
+    let result = fit_arrangement(models, &image, &start, &hints, None, config, progress)?;
     let report = result.report();
     let name = panorama
         .file_name()
@@ -80,12 +81,14 @@ pub fn write_fit(
 }
 
 /// Fits the models in `models` to `image` from the arrangement `start` (camera and initial poses), with
-/// relation `hints` per object name; the in-memory core of [`fit_panorama`].
+/// relation `hints` per object name, every object's light code starting from the code named
+/// `object_light` (the first capture lighting when `None`); the in-memory core of [`fit_panorama`].
 pub fn fit_arrangement(
     models: &Path,
     image: &RgbImage,
     start: &Arrangement,
     hints: &[(String, Vec<Hint>)],
+    object_light: Option<&str>,
     config: &FitConfig,
     progress: &mut dyn FnMut(&IterationLog),
 ) -> anyhow::Result<FitResult<NeusField>> {
@@ -99,7 +102,20 @@ pub fn fit_arrangement(
         })
         .context("the model folder's manifest has no room box")?;
     let inits = object_inits(start, hints);
-    let scene = build_scene(loaded, start)?;
+    let light_rows = loaded
+        .manifest
+        .models
+        .iter()
+        .map(|entry| match entry.kind {
+            ModelKind::Object => crate::locate::light_code(entry, object_light),
+            ModelKind::Background => Ok(0),
+        })
+        .collect::<anyhow::Result<Vec<u32>>>()
+        .with_context(|| models.join(MANIFEST_FILE).display().to_string())?;
+    let mut scene = build_scene(loaded, start)?;
+    for object in &mut scene.objects {
+        object.codes.light = light_rows[object.model];
+    }
     Ok(fit(
         scene,
         &room_box,
@@ -176,5 +192,64 @@ fn output_paths(out: &Path) -> FitOutputs {
         report: sibling(".fit.json"),
         before: sibling(".before.png"),
         after: sibling(".after.png"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use neuroom_export::testing::{tiny_arrangement, tiny_models, write_tiny_models};
+    use neuroom_fit::FitField;
+
+    #[test]
+    fn every_object_starts_the_fit_from_the_light_code_it_is_told() {
+        let dir = tempfile::tempdir().unwrap();
+        write_tiny_models(dir.path()).unwrap();
+        let start = tiny_arrangement();
+        let image = RgbImage {
+            width: 32,
+            height: 16,
+            data: vec![[0.5; 3]; 32 * 16],
+        };
+        // No code adaptation: the report holds the rows the objects started from.
+        let config = FitConfig {
+            pose_iterations: 1,
+            appearance_iterations: 0,
+            preview_height: None,
+            ..FitConfig::refinement()
+        };
+        let fit = |light| {
+            fit_arrangement(dir.path(), &image, &start, &[], light, &config, &mut |_| {})
+                .unwrap()
+                .report()
+        };
+        let models = tiny_models();
+        let row = |id: u16, code: u32| {
+            let k = models
+                .manifest
+                .models
+                .iter()
+                .position(|m| m.ids.contains(&id));
+            models.fields[k.unwrap()].light_code(code)
+        };
+        for (light, code) in [(None, 0), (Some("warm"), 1)] {
+            for object in fit(light).objects {
+                assert_eq!(object.light_code, row(object.id, code), "{light:?}");
+            }
+        }
+        let error = fit_arrangement(
+            dir.path(),
+            &image,
+            &start,
+            &[],
+            Some("dusk"),
+            &config,
+            &mut |_| {},
+        );
+        let message = format!("{:#}", error.unwrap_err());
+        assert!(
+            message.contains("manifest.json") && message.contains("`dusk`"),
+            "{message}"
+        );
     }
 }

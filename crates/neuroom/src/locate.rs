@@ -245,7 +245,7 @@ pub fn object_models(
 
 /// The index of the light code named `name` in `entry` (code 0, the first capture lighting, for
 /// `None`); an error naming the model and the codes it has when it has no such code.
-fn light_code(entry: &ModelEntry, name: Option<&str>) -> anyhow::Result<u32> {
+pub(crate) fn light_code(entry: &ModelEntry, name: Option<&str>) -> anyhow::Result<u32> {
     let Some(name) = name else {
         return Ok(0);
     };
@@ -645,8 +645,15 @@ pub fn locate(
             if !arrangement.objects.is_empty() =>
         {
             let hints = crate::fit::room_hints(room)?;
-            let result =
-                crate::fit::fit_arrangement(models, image, &arrangement, &hints, fit, progress)?;
+            let result = crate::fit::fit_arrangement(
+                models,
+                image,
+                &arrangement,
+                &hints,
+                config.object_light.as_deref(),
+                fit,
+                progress,
+            )?;
             let report = result.report();
             let solved = crate::fit::solved_arrangement(&arrangement, &report, name);
             let camera = located[0].camera.pose();
@@ -947,6 +954,7 @@ pub fn bench_locate(
                     &image,
                     &initial,
                     &hints,
+                    config.object_light.as_deref(),
                     fit,
                     &mut |_| {},
                 )?;
