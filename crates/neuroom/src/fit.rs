@@ -11,7 +11,7 @@ use neuroom_field::NeusField;
 use neuroom_fit::{FitConfig, FitReport, FitResult, Hint, IterationLog, ObjectInit, RoomBox, fit};
 use neuroom_train::{MANIFEST_FILE, ModelKind};
 
-use crate::scene::{build_scene, load_models};
+use crate::scene::{build_scene, light_code, load_models};
 
 /// What a fit wrote.
 #[derive(Clone, Debug)]
@@ -107,7 +107,7 @@ pub fn fit_arrangement(
         .models
         .iter()
         .map(|entry| match entry.kind {
-            ModelKind::Object => crate::locate::light_code(entry, object_light),
+            ModelKind::Object => light_code(entry, object_light),
             ModelKind::Background => Ok(0),
         })
         .collect::<anyhow::Result<Vec<u32>>>()

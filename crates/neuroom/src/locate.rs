@@ -32,10 +32,10 @@ use neuroom_locate::{
 use neuroom_render::RenderConfig;
 use neuroom_render::scene::{Background, Model, Scene};
 use neuroom_train::dataset::{PixelClass, Role, load_views};
-use neuroom_train::{MANIFEST_FILE, ModelEntry, ModelKind, RoomModels};
+use neuroom_train::{MANIFEST_FILE, ModelKind, RoomModels};
 use serde::{Deserialize, Serialize};
 
-use crate::scene::load_models;
+use crate::scene::{light_code, load_models};
 use crate::score::{ShapeSymmetries, score_in_room};
 
 /// The database file of a model folder.
@@ -241,23 +241,6 @@ pub fn object_models(
             })
         })
         .collect()
-}
-
-/// The index of the light code named `name` in `entry` (code 0, the first capture lighting, for
-/// `None`); an error naming the model and the codes it has when it has no such code.
-pub(crate) fn light_code(entry: &ModelEntry, name: Option<&str>) -> anyhow::Result<u32> {
-    let Some(name) = name else {
-        return Ok(0);
-    };
-    let names = &entry.light_codes.names;
-    let index = names.iter().position(|n| n == name).with_context(|| {
-        format!(
-            "model `{}` has no light code `{name}` (it has {})",
-            entry.name,
-            names.join(", ")
-        )
-    })?;
-    Ok(u32::try_from(index)?)
 }
 
 /// How far in front of what a capture frame saw a cloud point must lie to be carved away (metres).

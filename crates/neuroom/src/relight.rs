@@ -8,10 +8,10 @@
 
 use std::path::Path;
 
-use anyhow::Context as _;
 use neuroom_core::image::RgbImage;
 use neuroom_export::lighting::SceneLight;
 
+use crate::scene::named_light_row;
 use crate::tour::SequenceOutputs;
 use crate::view::{SolvedScene, ViewCamera, render_view, solved_scene};
 
@@ -48,13 +48,7 @@ pub fn resolve(scene: &SolvedScene, spec: &LightSpec) -> anyhow::Result<SceneLig
     let row = |model: usize| -> anyhow::Result<usize> {
         match spec {
             LightSpec::Index(k) => Ok(*k),
-            LightSpec::Name(n) => names[model].iter().position(|x| x == n).with_context(|| {
-                format!(
-                    "model `{}` has no light code `{n}` (it has: {})",
-                    scene.placed.names[model],
-                    names[model].join(", ")
-                )
-            }),
+            LightSpec::Name(n) => named_light_row(&scene.placed.names[model], &names[model], n),
             LightSpec::Solved => Ok(0),
         }
     };

@@ -8,11 +8,32 @@ use glam::Vec3;
 use neuroom_core::formats::Arrangement;
 use neuroom_field::NeusField;
 use neuroom_render::scene::{Background, Model, Scene, SceneObject};
-use neuroom_train::{ModelKind, RoomModels, load_room_models};
+use neuroom_train::{ModelEntry, ModelKind, RoomModels, load_room_models};
 
 /// Loads `<models>/manifest.json` and its fields (a room's model folder, as `neuroom train` writes it).
 pub fn load_models(dir: &Path) -> anyhow::Result<RoomModels> {
     load_room_models(dir).with_context(|| format!("reading the models in {}", dir.display()))
+}
+
+/// The row of the light code named `name` in `entry` (row 0, the first capture lighting, for `None`);
+/// an error naming the model and the codes it has when it has no such code.
+pub fn light_code(entry: &ModelEntry, name: Option<&str>) -> anyhow::Result<u32> {
+    let Some(name) = name else {
+        return Ok(0);
+    };
+    let row = named_light_row(&entry.name, &entry.light_codes.names, name)?;
+    Ok(u32::try_from(row)?)
+}
+
+/// The row of the light code named `name` among `names`, the light codes of model `model`; an error
+/// naming the model and its codes when none is so named.
+pub fn named_light_row(model: &str, names: &[String], name: &str) -> anyhow::Result<usize> {
+    names.iter().position(|n| n == name).with_context(|| {
+        format!(
+            "model `{model}` has no light code `{name}` (it has {})",
+            names.join(", ")
+        )
+    })
 }
 
 /// Places the models as `arrangement` says. Objects whose id no model draws are an error naming the id.
