@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use glam::Vec3;
-use neuroom_core::formats::{self, Arrangement, read_arrangement, read_rgb, read_room};
+use neuroom_core::formats::{self, Arrangement, Room, read_arrangement, read_rgb, read_room};
 use neuroom_core::image::RgbImage;
 use neuroom_field::NeusField;
 use neuroom_fit::{FitConfig, FitReport, FitResult, Hint, IterationLog, ObjectInit, RoomBox, fit};
@@ -129,9 +129,12 @@ pub fn fit_arrangement(
 
 /// Relation hints per object name from room.json.
 pub fn room_hints(room: &Path) -> anyhow::Result<Vec<(String, Vec<Hint>)>> {
-    let room = read_room(room)?;
-    Ok(room
-        .objects
+    Ok(relation_hints(&read_room(room)?))
+}
+
+/// Relation hints per object name of a parsed room.json.
+pub fn relation_hints(room: &Room) -> Vec<(String, Vec<Hint>)> {
+    room.objects
         .iter()
         .map(|o| {
             (
@@ -139,7 +142,7 @@ pub fn room_hints(room: &Path) -> anyhow::Result<Vec<(String, Vec<Hint>)>> {
                 o.relations.iter().filter_map(|r| Hint::parse(r)).collect(),
             )
         })
-        .collect())
+        .collect()
 }
 
 fn object_inits(start: &Arrangement, hints: &[(String, Vec<Hint>)]) -> Vec<ObjectInit> {

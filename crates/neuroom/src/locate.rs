@@ -398,32 +398,36 @@ impl QueryImage {
 
 /// Locates `query` in the room of `ctx`: camera, detections, objects and initial poses; returns the
 /// arrangement (FORMAT.md, with the camera; `image_name` names the image file; a photo's intrinsics are
-/// recorded as `camera`) and the details (whose camera is the panorama frame).
+/// recorded as `camera`), the details (whose camera is the panorama frame) and the query's view at the
+/// found camera ([`object_view`]), in which arrangements are judged.
 pub fn locate_image(
     ctx: &LocateContext,
     query: &QueryImage,
     image_name: &str,
     config: &LocateConfig,
-) -> anyhow::Result<(Arrangement, Located)> {
-    let located = locate_view(ctx, query, image_name, config)?;
+) -> anyhow::Result<(Arrangement, Located, View)> {
+    let (located, view) = locate_view(ctx, query, image_name, config)?;
     let mut arrangement = arrangement_of(ctx, &located.found, query, &located.camera.pose());
     arrangement.image = image_name.to_string();
-    Ok((arrangement, located))
+    Ok((arrangement, located, view))
 }
 
 /// Locates several views of one arrangement (panoramas or photos, [`QueryImage`]), each on its own,
 /// and merges their objects ([`merge_views`]). The arrangement states the first view's camera and
-/// image; every view's image, camera and intrinsics are listed under `views`.
+/// image; every view's image, camera and intrinsics are listed under `views`. Each view's details and
+/// its view at the found camera ([`object_view`]) come with it.
 pub fn locate_views(
     ctx: &LocateContext,
     views: &[(QueryImage, String)],
     config: &LocateConfig,
-) -> anyhow::Result<(Arrangement, Vec<Located>)> {
+) -> anyhow::Result<(Arrangement, Vec<Located>, Vec<View>)> {
     let (first, first_name) = views.first().context("no image to locate")?;
-    let located = views
+    let (located, object_views): (Vec<Located>, Vec<View>) = views
         .iter()
         .map(|(query, name)| locate_view(ctx, query, name, config))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<anyhow::Result<Vec<_>>>()?
+        .into_iter()
+        .unzip();
     let merged = match located.as_slice() {
         [one] => one.found.clone(),
         _ => {
@@ -445,16 +449,16 @@ pub fn locate_views(
         })
         .collect();
     arrangement.extra.insert("views".into(), listed.into());
-    Ok((arrangement, located))
+    Ok((arrangement, located, object_views))
 }
 
-/// The camera and the objects of one view.
+/// The camera and the objects of one view, and the view at that camera ([`object_view`]).
 fn locate_view(
     ctx: &LocateContext,
     query: &QueryImage,
     image_name: &str,
     config: &LocateConfig,
-) -> anyhow::Result<Located> {
+) -> anyhow::Result<(Located, View)> {
     let t0 = Instant::now();
     let sphere = query.sphere();
     let camera = localize(&ctx.scene, &ctx.database, &sphere, &config.localize)
@@ -471,12 +475,13 @@ fn locate_view(
         models: &ctx.objects,
     };
     let found = find_objects(&input, &config.search);
-    Ok(Located {
+    let located = Located {
         camera,
         detections: detections.len(),
         found,
         seconds: [(t1 - t0).as_secs_f64(), t1.elapsed().as_secs_f64()],
-    })
+    };
+    Ok((located, view))
 }
 
 /// The arrangement of `found` seen by `query` from the panorama frame `camera` (its image left empty).
@@ -613,7 +618,7 @@ pub fn locate(
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
     let ctx = LocateContext::load(room, models, config)?;
-    let (mut arrangement, located) = locate_views(&ctx, &views, config)?;
+    let (mut arrangement, located, object_views) = locate_views(&ctx, &views, config)?;
     arrangement
         .extra
         .insert("locate".into(), serde_json::to_value(&located)?);
@@ -624,10 +629,8 @@ pub fn locate(
     let init = out.with_file_name(format!("{stem}.init.json"));
     formats::write_arrangement(&init, &arrangement)?;
     let fitted = match (fit, views.as_slice()) {
-        (Some(fit), [(query @ QueryImage::Panorama(image), name)])
-            if !arrangement.objects.is_empty() =>
-        {
-            let hints = crate::fit::room_hints(room)?;
+        (Some(fit), [(QueryImage::Panorama(image), name)]) if !arrangement.objects.is_empty() => {
+            let hints = crate::fit::relation_hints(&ctx.room);
             let result = crate::fit::fit_arrangement(
                 models,
                 image,
@@ -640,8 +643,8 @@ pub fn locate(
             let report = result.report();
             let solved = crate::fit::solved_arrangement(&arrangement, &report, name);
             let camera = located[0].camera.pose();
-            let view = object_view(&ctx, &query.sphere(), &camera, config);
-            let solved = keep_better_poses(&ctx, &view, &camera, &arrangement, solved, config);
+            let view = &object_views[0];
+            let solved = keep_better_poses(&ctx, view, &camera, &arrangement, solved, config);
             crate::fit::write_fit(out, &solved, &report, &result)?;
             true
         }
@@ -913,7 +916,7 @@ pub fn bench_locate(
 ) -> anyhow::Result<(Vec<PanoramaScore>, LocateMean)> {
     let ctx = LocateContext::load(room, models, config)?;
     let symmetries = ShapeSymmetries::of_room(&ctx.room)?;
-    let hints = crate::fit::room_hints(room)?;
+    let hints = crate::fit::relation_hints(&ctx.room);
     let mut scores = Vec::new();
     for (png, truth) in test_panoramas(room)? {
         let image = read_rgb(&png)?.image;
@@ -922,14 +925,10 @@ pub fn bench_locate(
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         let start = Instant::now();
-        let (initial, located) =
+        let (initial, located, view) =
             locate_image(&ctx, &QueryImage::Panorama(image.clone()), &name, config)?;
         let initial_score = fit.map(|_| score_in_room(&ctx.room, &symmetries, &truth, &initial));
         let camera = located.camera.pose();
-        let query_view =
-            || object_view(&ctx, &SphereImage::panorama(image.clone()), &camera, config);
-        // The fit's check needs the query's view (timed with it); the objective below reuses it.
-        let mut view = None;
         let arrangement = match fit {
             Some(fit) if !initial.objects.is_empty() => {
                 let result = crate::fit::fit_arrangement(
@@ -942,13 +941,11 @@ pub fn bench_locate(
                     &mut |_| {},
                 )?;
                 let solved = crate::fit::solved_arrangement(&initial, &result.report(), &name);
-                let checked = view.insert(query_view());
-                keep_better_poses(&ctx, checked, &camera, &initial, solved, config)
+                keep_better_poses(&ctx, &view, &camera, &initial, solved, config)
             }
             _ => initial,
         };
         let seconds = start.elapsed().as_secs_f64();
-        let view = view.unwrap_or_else(query_view);
         let objective = search_objective(&ctx, &view, &located, &truth, config);
         let score = PanoramaScore {
             panorama: name,
