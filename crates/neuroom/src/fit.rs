@@ -26,18 +26,30 @@ pub struct FitOutputs {
     pub after: PathBuf,
 }
 
-/// Fits the models in `models` to `panorama` from the arrangement `init` (camera and initial poses) and
-/// writes the solved arrangement to `out`, its report to `<out stem>.fit.json` and before/after renders
-/// beside it. With `room`, its relation hints (`floor`, `wall`, `on:<name>`) seed the relations.
+/// What `neuroom fit` starts from.
+#[derive(Clone, Copy, Debug)]
+pub struct FitInput<'a> {
+    /// The equirectangular panorama to explain.
+    pub panorama: &'a Path,
+    /// The arrangement holding the panorama's camera and the initial poses.
+    pub init: &'a Path,
+    /// The room folder, whose relation hints (`floor`, `wall`, `on:<name>`) seed the relations.
+    pub room: Option<&'a Path>,
+    /// The light code every object starts from, by name (the first capture lighting when `None`): the
+    /// one the initial poses were searched under.
+    pub object_light: Option<&'a str>,
+}
+
+/// Fits the models in `models` to the panorama of `input` from its initial arrangement and writes the
+/// solved arrangement to `out`, its report to `<out stem>.fit.json` and before/after renders beside it.
 pub fn fit_panorama(
     models: &Path,
-    panorama: &Path,
-    init: &Path,
-    room: Option<&Path>,
+    input: &FitInput,
     out: &Path,
     config: &FitConfig,
     progress: &mut dyn FnMut(&IterationLog),
 ) -> anyhow::Result<(FitOutputs, FitReport)> {
+    let panorama = input.panorama;
     let image = read_rgb(panorama)?.image;
     anyhow::ensure!(
         image.width == 2 * image.height,
@@ -46,12 +58,20 @@ pub fn fit_panorama(
         image.width,
         image.height
     );
-    let start = read_arrangement(init)?;
-    let hints = match room {
+    let start = read_arrangement(input.init)?;
+    let hints = match input.room {
         Some(r) => room_hints(r)?,
         None => Vec::new(),
     };
-    let result = fit_arrangement(models, &image, &start, &hints, None, config, progress)?;
+    let result = fit_arrangement(
+        models,
+        &image,
+        &start,
+        &hints,
+        input.object_light,
+        config,
+        progress,
+    )?;
     let report = result.report();
     let name = panorama
         .file_name()
@@ -254,5 +274,49 @@ mod tests {
             message.contains("manifest.json") && message.contains("`dusk`"),
             "{message}"
         );
+    }
+
+    #[test]
+    fn fit_panorama_writes_the_light_codes_of_the_named_code_it_started_from() {
+        let dir = tempfile::tempdir().unwrap();
+        let models = dir.path().join("models");
+        write_tiny_models(&models).unwrap();
+        let (panorama, init) = (dir.path().join("p.png"), dir.path().join("init.json"));
+        formats::write_rgb(
+            &panorama,
+            &RgbImage {
+                width: 32,
+                height: 16,
+                data: vec![[0.5; 3]; 32 * 16],
+            },
+        )
+        .unwrap();
+        formats::write_arrangement(&init, &tiny_arrangement()).unwrap();
+        let config = FitConfig {
+            pose_iterations: 1,
+            appearance_iterations: 0,
+            preview_height: None,
+            ..FitConfig::refinement()
+        };
+        let input = |object_light| FitInput {
+            panorama: &panorama,
+            init: &init,
+            room: None,
+            object_light,
+        };
+        let out = dir.path().join("solved.json");
+        fit_panorama(&models, &input(Some("warm")), &out, &config, &mut |_| {}).unwrap();
+        let solved = read_arrangement(&out).unwrap();
+        let tiny = tiny_models();
+        let ball_model = tiny.manifest.models.iter().position(|m| m.ids.contains(&1));
+        let warm = tiny.fields[ball_model.unwrap()].light_code(1);
+        let ball = solved.objects.iter().find(|o| o.id == 1).unwrap();
+        assert_eq!(
+            ball.extra["light_code"],
+            serde_json::to_value(&warm).unwrap()
+        );
+        let error = fit_panorama(&models, &input(Some("dusk")), &out, &config, &mut |_| {});
+        let message = format!("{:#}", error.unwrap_err());
+        assert!(message.contains("`dusk`"), "{message}");
     }
 }

@@ -37,6 +37,11 @@ pub struct Args {
     /// Rays per iteration.
     #[arg(long)]
     rays: Option<usize>,
+    /// Start every object's light code from this named light code of the models (`capture`,
+    /// `apartment`, `lobby`, `studio` for models lit by the default maps; the manifest lists them)
+    /// instead of the first capture lighting: the one `neuroom locate --object-light` searched under.
+    #[arg(long)]
+    object_light: Option<String>,
     /// Skip the render-and-compare search of each object's position and yaw before stage 1 (when the
     /// initial poses come from `neuroom locate`, which has searched already).
     #[arg(long)]
@@ -58,9 +63,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut bars = StageBars::new();
     let (outputs, report) = neuroom::fit::fit_panorama(
         &args.models,
-        &args.panorama,
-        &args.init,
-        args.room.as_deref(),
+        &neuroom::fit::FitInput {
+            panorama: &args.panorama,
+            init: &args.init,
+            room: args.room.as_deref(),
+            object_light: args.object_light.as_deref(),
+        },
         &args.out,
         &config,
         &mut |log| bars.update("fit", log.iteration as u64 + 1, total),
