@@ -42,23 +42,24 @@ pub struct Args {
     /// instead of the first capture lighting: the one `neuroom locate --object-light` searched under.
     #[arg(long)]
     object_light: Option<String>,
-    /// Skip the render-and-compare search of each object's position and yaw before stage 1 (when the
-    /// initial poses come from `neuroom locate`, which has searched already).
+    /// Refine initial poses that `neuroom locate --no-fit` found, as `neuroom locate`'s own fit does: no
+    /// render-and-compare search of each object's position and yaw before stage 1, and smaller steps.
     #[arg(long)]
     no_search: bool,
 }
 
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = FitConfig::default();
+    let mut config = if args.no_search {
+        FitConfig::refinement()
+    } else {
+        FitConfig::default()
+    };
     config.pose_iterations = args.pose_iterations.unwrap_or(config.pose_iterations);
     config.appearance_iterations = args
         .appearance_iterations
         .unwrap_or(config.appearance_iterations);
     config.rays = args.rays.unwrap_or(config.rays);
-    if args.no_search {
-        config.search = None;
-    }
     let total = (config.pose_iterations + config.appearance_iterations) as u64;
     let mut bars = StageBars::new();
     let (outputs, report) = neuroom::fit::fit_panorama(
