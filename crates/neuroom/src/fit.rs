@@ -11,6 +11,7 @@ use neuroom_field::NeusField;
 use neuroom_fit::{FitConfig, FitReport, FitResult, Hint, IterationLog, ObjectInit, RoomBox, fit};
 use neuroom_train::{MANIFEST_FILE, ModelKind};
 
+use crate::locate::{LocateConfig, check_fit};
 use crate::scene::{build_scene, light_code, load_models};
 
 /// What a fit wrote.
@@ -38,6 +39,9 @@ pub struct FitInput<'a> {
     /// The light code every object starts from, by name (the first capture lighting when `None`): the
     /// one the initial poses were searched under.
     pub object_light: Option<&'a str>,
+    /// Afterwards put each object back at its initial pose where the object search's colour model says
+    /// that explains the panorama better, as `neuroom locate` checks its own fit; needs `room`.
+    pub check: bool,
 }
 
 /// Fits the models in `models` to the panorama of `input` from its initial arrangement and writes the
@@ -59,6 +63,10 @@ pub fn fit_panorama(
         image.height
     );
     let start = read_arrangement(input.init)?;
+    anyhow::ensure!(
+        !input.check || input.room.is_some(),
+        "checking the fit's poses needs the room folder (room.json)"
+    );
     let hints = match input.room {
         Some(r) => room_hints(r)?,
         None => Vec::new(),
@@ -77,7 +85,14 @@ pub fn fit_panorama(
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let solved = solved_arrangement(&start, &report, &name);
+    let mut solved = solved_arrangement(&start, &report, &name);
+    if let (true, Some(room)) = (input.check, input.room) {
+        let config = LocateConfig {
+            object_light: input.object_light.map(str::to_string),
+            ..LocateConfig::default()
+        };
+        solved = check_fit(room, models, &image, &start, solved, &config)?;
+    }
     let outputs = write_fit(out, &solved, &report, &result)?;
     Ok((outputs, report))
 }
@@ -303,6 +318,7 @@ mod tests {
             init: &init,
             room: None,
             object_light,
+            check: false,
         };
         let out = dir.path().join("solved.json");
         fit_panorama(&models, &input(Some("warm")), &out, &config, &mut |_| {}).unwrap();

@@ -805,6 +805,26 @@ pub fn keep_better_poses(
     seated_on_supporters(initial, &solved, kept, &supporters)
 }
 
+/// The fit's arrangement `solved` of the panorama `image`, checked as `neuroom locate` checks its own fit
+/// ([`keep_better_poses`]) against the initial arrangement `initial`, at `initial`'s camera: what
+/// `neuroom fit --check` does with the room in `room` and the models in `models`.
+pub fn check_fit(
+    room: &Path,
+    models: &Path,
+    image: &RgbImage,
+    initial: &Arrangement,
+    solved: Arrangement,
+    config: &LocateConfig,
+) -> anyhow::Result<Arrangement> {
+    let ctx = LocateContext::load(room, models, config)?;
+    let camera = initial.camera_to_world;
+    let sphere = QueryImage::Panorama(image.clone()).sphere();
+    let view = object_view(&ctx, &sphere, &camera, config);
+    Ok(keep_better_poses(
+        &ctx, &view, &camera, initial, solved, config,
+    ))
+}
+
 /// `kept` (objects at their pose in `initial` or in `solved`) with each object that stands on another
 /// (`supporters` gives the ids of the instances it may stand on) raised or lowered by the height its
 /// supporter changed between the arrangement its own pose comes from and `kept`: it rests on the top
@@ -1113,6 +1133,36 @@ mod tests {
             .map(|o| o.extra.contains_key("initial_pose"))
             .collect();
         assert_eq!(marked, [false, true, true]);
+    }
+
+    #[test]
+    fn the_fits_check_puts_back_an_object_the_fit_moved_off_what_the_panorama_shows() {
+        use neuroom_export::testing::{TINY_ROOM_JSON, tiny_arrangement, write_tiny_models};
+        let dir = tempfile::tempdir().unwrap();
+        let (room, models) = (dir.path().join("room"), dir.path().join("models"));
+        std::fs::create_dir_all(&room).unwrap();
+        std::fs::write(room.join("room.json"), TINY_ROOM_JSON).unwrap();
+        write_tiny_models(&models).unwrap();
+        let truth = tiny_arrangement();
+        let truth_path = dir.path().join("truth.json");
+        formats::write_arrangement(&truth_path, &truth).unwrap();
+        let camera = crate::view::ViewCamera::Panorama { width: 256 };
+        let image = crate::view::render_arrangement(&models, &truth_path, &camera)
+            .unwrap()
+            .rgb;
+        // The "fit" slid the stool 30 cm sideways and left the balls.
+        let mut solved = truth.clone();
+        solved.objects[2].object_to_world.translation.y += 0.3;
+        let config = LocateConfig::default();
+        let checked = check_fit(&room, &models, &image, &truth, solved, &config).unwrap();
+        let marked: Vec<bool> = checked
+            .objects
+            .iter()
+            .map(|o| o.extra.contains_key("initial_pose"))
+            .collect();
+        assert_eq!(marked, [false, false, true]);
+        let stool = checked.objects[2].object_to_world.translation;
+        assert!(stool.distance(truth.objects[2].object_to_world.translation) < 1e-3);
     }
 
     #[test]

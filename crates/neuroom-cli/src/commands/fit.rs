@@ -42,6 +42,10 @@ pub struct Args {
     /// instead of the first capture lighting: the one `neuroom locate --object-light` searched under.
     #[arg(long)]
     object_light: Option<String>,
+    /// Afterwards put each object back at its initial pose where the object search's colour model says
+    /// that explains the panorama better, as `neuroom locate` checks its own fit (needs `--room`).
+    #[arg(long, requires = "room")]
+    check: bool,
     /// Refine initial poses that `neuroom locate --no-fit` found, as `neuroom locate`'s own fit does: no
     /// render-and-compare search of each object's position and yaw before stage 1, and smaller steps.
     #[arg(long)]
@@ -69,6 +73,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             init: &args.init,
             room: args.room.as_deref(),
             object_light: args.object_light.as_deref(),
+            check: args.check,
         },
         &args.out,
         &config,
