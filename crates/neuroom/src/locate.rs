@@ -1079,6 +1079,14 @@ mod tests {
         }
     }
 
+    /// Per object of `a`, whether the check put it back at its initial pose.
+    fn marked_initial(a: &Arrangement) -> Vec<bool> {
+        a.objects
+            .iter()
+            .map(|o| o.extra.contains_key("initial_pose"))
+            .collect()
+    }
+
     #[test]
     fn the_object_search_sees_the_objects_under_the_light_code_it_names() {
         let room = neuroom_core::formats::parse_room(
@@ -1127,12 +1135,7 @@ mod tests {
             .map(|o| o.object_to_world.translation.x)
             .collect();
         assert_eq!(xs, [1.0, 2.5, 3.0]);
-        let marked: Vec<bool> = kept
-            .objects
-            .iter()
-            .map(|o| o.extra.contains_key("initial_pose"))
-            .collect();
-        assert_eq!(marked, [false, true, true]);
+        assert_eq!(marked_initial(&kept), [false, true, true]);
     }
 
     #[test]
@@ -1155,12 +1158,7 @@ mod tests {
         solved.objects[2].object_to_world.translation.y += 0.3;
         let config = LocateConfig::default();
         let checked = check_fit(&room, &models, &image, &truth, solved, &config).unwrap();
-        let marked: Vec<bool> = checked
-            .objects
-            .iter()
-            .map(|o| o.extra.contains_key("initial_pose"))
-            .collect();
-        assert_eq!(marked, [false, false, true]);
+        assert_eq!(marked_initial(&checked), [false, false, true]);
         let stool = checked.objects[2].object_to_world.translation;
         assert!(stool.distance(truth.objects[2].object_to_world.translation) < 1e-3);
     }
