@@ -11,7 +11,7 @@ use neuroom_field::NeusField;
 use neuroom_fit::{FitConfig, FitReport, FitResult, Hint, IterationLog, ObjectInit, RoomBox, fit};
 use neuroom_train::{MANIFEST_FILE, ModelKind};
 
-use crate::locate::{LocateConfig, check_fit};
+use crate::locate::{LocateConfig, LocateContext, check_fit};
 use crate::scene::{build_scene, light_code, load_models};
 
 /// What a fit wrote.
@@ -63,13 +63,21 @@ pub fn fit_panorama(
         image.height
     );
     let start = read_arrangement(input.init)?;
-    anyhow::ensure!(
-        !input.check || input.room.is_some(),
-        "checking the fit's poses needs the room folder (room.json)"
-    );
-    let hints = match input.room {
-        Some(r) => room_hints(r)?,
-        None => Vec::new(),
+    // The check's context (room, models, object clouds) is loaded before the fit, so that a room it
+    // cannot use fails before minutes of fitting; the relation hints come from the room it read.
+    let locate_config = LocateConfig {
+        object_light: input.object_light.map(str::to_string),
+        ..LocateConfig::default()
+    };
+    let check = match (input.check, input.room) {
+        (true, Some(room)) => Some(LocateContext::load(room, models, &locate_config)?),
+        (true, None) => anyhow::bail!("checking the fit's poses needs the room folder (room.json)"),
+        (false, _) => None,
+    };
+    let hints = match (&check, input.room) {
+        (Some(ctx), _) => relation_hints(&ctx.room),
+        (None, Some(r)) => room_hints(r)?,
+        (None, None) => Vec::new(),
     };
     let result = fit_arrangement(
         models,
@@ -86,12 +94,8 @@ pub fn fit_panorama(
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let mut solved = solved_arrangement(&start, &report, &name);
-    if let (true, Some(room)) = (input.check, input.room) {
-        let config = LocateConfig {
-            object_light: input.object_light.map(str::to_string),
-            ..LocateConfig::default()
-        };
-        solved = check_fit(room, models, &image, &start, solved, &config)?;
+    if let Some(ctx) = &check {
+        solved = check_fit(ctx, &image, &start, solved, &locate_config);
     }
     let outputs = write_fit(out, &solved, &report, &result)?;
     Ok((outputs, report))
@@ -239,23 +243,32 @@ mod tests {
     use neuroom_export::testing::{tiny_arrangement, tiny_models, write_tiny_models};
     use neuroom_fit::FitField;
 
+    /// One pose step and no code adaptation: the report holds the light codes the objects started from.
+    fn one_step() -> FitConfig {
+        FitConfig {
+            pose_iterations: 1,
+            appearance_iterations: 0,
+            preview_height: None,
+            ..FitConfig::refinement()
+        }
+    }
+
+    /// A small uniform grey panorama.
+    fn grey_panorama() -> RgbImage {
+        RgbImage {
+            width: 32,
+            height: 16,
+            data: vec![[0.5; 3]; 32 * 16],
+        }
+    }
+
     #[test]
     fn every_object_starts_the_fit_from_the_light_code_it_is_told() {
         let dir = tempfile::tempdir().unwrap();
         write_tiny_models(dir.path()).unwrap();
         let start = tiny_arrangement();
-        let image = RgbImage {
-            width: 32,
-            height: 16,
-            data: vec![[0.5; 3]; 32 * 16],
-        };
-        // No code adaptation: the report holds the rows the objects started from.
-        let config = FitConfig {
-            pose_iterations: 1,
-            appearance_iterations: 0,
-            preview_height: None,
-            ..FitConfig::refinement()
-        };
+        let image = grey_panorama();
+        let config = one_step();
         let fit = |light| {
             fit_arrangement(dir.path(), &image, &start, &[], light, &config, &mut |_| {})
                 .unwrap()
@@ -297,22 +310,9 @@ mod tests {
         let models = dir.path().join("models");
         write_tiny_models(&models).unwrap();
         let (panorama, init) = (dir.path().join("p.png"), dir.path().join("init.json"));
-        formats::write_rgb(
-            &panorama,
-            &RgbImage {
-                width: 32,
-                height: 16,
-                data: vec![[0.5; 3]; 32 * 16],
-            },
-        )
-        .unwrap();
+        formats::write_rgb(&panorama, &grey_panorama()).unwrap();
         formats::write_arrangement(&init, &tiny_arrangement()).unwrap();
-        let config = FitConfig {
-            pose_iterations: 1,
-            appearance_iterations: 0,
-            preview_height: None,
-            ..FitConfig::refinement()
-        };
+        let config = one_step();
         let input = |object_light| FitInput {
             panorama: &panorama,
             init: &init,

@@ -807,22 +807,18 @@ pub fn keep_better_poses(
 
 /// The fit's arrangement `solved` of the panorama `image`, checked as `neuroom locate` checks its own fit
 /// ([`keep_better_poses`]) against the initial arrangement `initial`, at `initial`'s camera: what
-/// `neuroom fit --check` does with the room in `room` and the models in `models`.
+/// `neuroom fit --check` does, in the room and models of `ctx`.
 pub fn check_fit(
-    room: &Path,
-    models: &Path,
+    ctx: &LocateContext,
     image: &RgbImage,
     initial: &Arrangement,
     solved: Arrangement,
     config: &LocateConfig,
-) -> anyhow::Result<Arrangement> {
-    let ctx = LocateContext::load(room, models, config)?;
+) -> Arrangement {
     let camera = initial.camera_to_world;
     let sphere = QueryImage::Panorama(image.clone()).sphere();
-    let view = object_view(&ctx, &sphere, &camera, config);
-    Ok(keep_better_poses(
-        &ctx, &view, &camera, initial, solved, config,
-    ))
+    let view = object_view(ctx, &sphere, &camera, config);
+    keep_better_poses(ctx, &view, &camera, initial, solved, config)
 }
 
 /// `kept` (objects at their pose in `initial` or in `solved`) with each object that stands on another
@@ -1157,7 +1153,8 @@ mod tests {
         let mut solved = truth.clone();
         solved.objects[2].object_to_world.translation.y += 0.3;
         let config = LocateConfig::default();
-        let checked = check_fit(&room, &models, &image, &truth, solved, &config).unwrap();
+        let ctx = LocateContext::load(&room, &models, &config).unwrap();
+        let checked = check_fit(&ctx, &image, &truth, solved, &config);
         assert_eq!(marked_initial(&checked), [false, false, true]);
         let stool = checked.objects[2].object_to_world.translation;
         assert!(stool.distance(truth.objects[2].object_to_world.translation) < 1e-3);
