@@ -2,8 +2,12 @@
 //! which nobody on the project made: if our pinhole or panorama maths were mirrored, flipped or off by
 //! half a pixel, depth would not agree between views and masks would not fall inside the object boxes.
 //!
+//! The same checks run on every room of the validation suite the project renders with Blender
+//! (`suite/`, made by `tools/suite/make_room.py`), which is part of the repository.
+//!
 //! The files are read directly (`image`, `serde_json`) so that this test checks the conventions alone,
-//! independently of the project's own readers. It is skipped, with a notice, when the folder is absent.
+//! independently of the project's own readers. The blender-lite checks are skipped, with a notice,
+//! when that folder is absent.
 
 use std::path::{Path, PathBuf};
 
@@ -174,7 +178,12 @@ fn quantile(values: &mut [f64], q: f64) -> f64 {
 #[test]
 fn background_depth_agrees_between_overlapping_views() {
     let Some(dir) = room_dir() else { return };
-    let views = read_background(&dir);
+    check_background_views_agree(&dir);
+}
+
+/// Checks that the background views of `dir` agree on the depth of what two of them see.
+fn check_background_views_agree(dir: &Path) {
+    let views = read_background(dir);
     assert!(views.len() >= 2);
     let pixels = (views[0].depth.width * views[0].depth.height / 64) as usize;
     let mut all = Vec::new();
@@ -295,14 +304,23 @@ fn check_panorama(dir: &Path, name: &str, sizes: &[(u16, DVec3)]) -> MaskAgreeme
 #[test]
 fn panorama_depth_and_masks_fall_in_the_object_boxes() {
     let Some(dir) = room_dir() else { return };
-    let sizes = object_sizes(&dir);
-    for name in [
-        "kitchen_a0_l0",
-        "kitchen_a0_l1",
-        "kitchen_a1_l0",
-        "kitchen_a1_l1",
-    ] {
-        let c = check_panorama(&dir, name, &sizes);
+    check_panoramas_against_boxes(
+        &dir,
+        &[
+            "kitchen_a0_l0",
+            "kitchen_a0_l1",
+            "kitchen_a1_l0",
+            "kitchen_a1_l1",
+        ],
+    );
+}
+
+/// Checks that the panoramas `names` of `dir` put object pixels inside their own box and empty-room
+/// pixels outside every box.
+fn check_panoramas_against_boxes(dir: &Path, names: &[&str]) {
+    let sizes = object_sizes(dir);
+    for &name in names {
+        let c = check_panorama(dir, name, &sizes);
         let inside = c.object_inside_own_box as f64 / c.object_pixels as f64;
         let stray = c.empty_inside_a_box as f64 / c.empty_pixels as f64;
         eprintln!(
@@ -332,8 +350,14 @@ fn panorama_depth_and_masks_fall_in_the_object_boxes() {
 #[test]
 fn panorama_ray_depth_agrees_with_background_views() {
     let Some(dir) = room_dir() else { return };
-    let views = read_background(&dir);
-    for name in ["kitchen_a0_l0", "kitchen_a1_l0"] {
+    check_panorama_depth_against_background(&dir, &["kitchen_a0_l0", "kitchen_a1_l0"]);
+}
+
+/// Checks that the ray depth of the empty room's pixels in panoramas `names` of `dir` agrees with the
+/// z-depth of the background views that see the same points.
+fn check_panorama_depth_against_background(dir: &Path, names: &[&str]) {
+    let views = read_background(dir);
+    for &name in names {
         let pano = dir.join("panoramas");
         let camera_to_world =
             pose(&read_json(&pano.join(format!("{name}.json")))["camera_to_world"]);
@@ -375,5 +399,126 @@ fn panorama_ray_depth_agrees_with_background_views() {
             "{name}: median disagreement with the background views {:.1} mm",
             median * 1e3
         );
+    }
+}
+
+/// The rooms of the repository's validation suite.
+fn suite_rooms() -> Vec<PathBuf> {
+    let suite = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../suite"));
+    let mut rooms: Vec<PathBuf> = std::fs::read_dir(&suite)
+        .unwrap_or_else(|e| {
+            panic!(
+                "{}: {e} (the suite is part of the repository)",
+                suite.display()
+            )
+        })
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("room.json").is_file())
+        .collect();
+    rooms.sort();
+    assert!(
+        rooms.len() >= 6,
+        "{}: only {} rooms",
+        suite.display(),
+        rooms.len()
+    );
+    rooms
+}
+
+/// The stems of a room's test panoramas (those with a ground truth).
+fn panorama_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir.join("panoramas"))
+        .expect("a panoramas folder")
+        .filter_map(|e| e.ok())
+        .filter_map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let stem = name.strip_suffix(".json")?;
+            (!stem.contains('.')).then(|| stem.to_string())
+        })
+        .collect();
+    names.sort();
+    names
+}
+
+/// Checks that every object capture of `dir` sees its object inside its box (`size` about the origin
+/// of its canonical frame, 1 cm margin): the canonical frame and the pinhole convention agree.
+fn check_object_captures_in_their_boxes(dir: &Path) {
+    let room = read_json(&dir.join("room.json"));
+    let objects = room["objects"].as_array().expect("objects");
+    let mut checked = Vec::new();
+    for object in objects {
+        let name = object["capture"].as_str().expect("capture");
+        if checked.contains(&name) {
+            continue;
+        }
+        checked.push(name);
+        // Identical objects share one capture, whose masks may carry any of their ids.
+        let ids: Vec<u16> = objects
+            .iter()
+            .filter(|o| o["capture"] == object["capture"])
+            .map(|o| o["id"].as_u64().expect("id") as u16)
+            .collect();
+        let size: [f64; 3] = serde_json::from_value(object["size"].clone()).expect("size");
+        let capture = dir.join(name);
+        let t = read_json(&capture.join("transforms.json"));
+        let num = |k: &str| t[k].as_f64().expect("intrinsics");
+        let camera = Pinhole::new(
+            num("w") as u32,
+            num("h") as u32,
+            num("fl_x"),
+            num("fl_y"),
+            num("cx"),
+            num("cy"),
+        );
+        let half = DVec3::from(size) * 0.5 + DVec3::splat(0.01);
+        let (mut seen, mut inside) = (0usize, 0usize);
+        for f in t["frames"].as_array().expect("frames").iter().step_by(4) {
+            let to_object = pose(&f["transform_matrix"]);
+            let depth = Depth::read(&capture.join(f["depth_file_path"].as_str().unwrap()), 0.001);
+            let (_, _, mask) = read_plane(&capture.join(f["instance_file_path"].as_str().unwrap()));
+            for v in 0..depth.height {
+                for u in 0..depth.width {
+                    let d = depth.at(u, v);
+                    if d <= 0.0 || !ids.contains(&mask[(v * depth.width + u) as usize]) {
+                        continue;
+                    }
+                    let p = to_object.transform_point(
+                        camera.unproject(DVec2::new(u as f64 + 0.5, v as f64 + 0.5), d),
+                    );
+                    seen += 1;
+                    inside += usize::from(p.abs().cmple(half).all());
+                }
+            }
+        }
+        let share = inside as f64 / seen.max(1) as f64;
+        eprintln!(
+            "{}: {seen} px, {:.3} % inside the box",
+            capture.display(),
+            100.0 * share
+        );
+        assert!(
+            seen > 1000 && share > 0.995,
+            "{}: {share}",
+            capture.display()
+        );
+    }
+}
+
+#[test]
+fn every_suite_room_follows_the_camera_and_depth_conventions() {
+    for dir in suite_rooms() {
+        eprintln!("== {}", dir.display());
+        let names = panorama_names(&dir);
+        assert!(
+            names.len() >= 4,
+            "{}: {} panoramas",
+            dir.display(),
+            names.len()
+        );
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        check_background_views_agree(&dir);
+        check_object_captures_in_their_boxes(&dir);
+        check_panoramas_against_boxes(&dir, &names);
+        check_panorama_depth_against_background(&dir, &names[..2]);
     }
 }
