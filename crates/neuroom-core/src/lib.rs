@@ -5,6 +5,7 @@
 //! frame) live in exactly one place.
 
 pub mod camera;
+pub mod camera_effects;
 pub mod error;
 pub mod formats;
 pub mod image;

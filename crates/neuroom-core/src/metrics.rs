@@ -129,6 +129,11 @@ pub struct ArrangementScore {
     pub mean_yaw_error_deg: Option<f64>,
     /// Mean centre distance over the found objects (APE), centimetres; `None` when none was found.
     pub mean_position_error_cm: Option<f64>,
+    /// Share of the ground-truth objects found within [`PLACED_WITHIN_CM`] of where they stand (missed
+    /// ones count as not placed), in [0, 1]; 1 without objects. Unlike precision, which counts
+    /// identities, an object named right and placed across the room does not count.
+    #[serde(default)]
+    pub placed_share: f64,
     /// Number of ground-truth objects without a matching prediction.
     pub missed: usize,
     /// Matched predictions over all predictions (1 when nothing was predicted).
@@ -136,6 +141,10 @@ pub struct ArrangementScore {
     /// Matched ground-truth objects over all of them (1 when there are none).
     pub recall: f64,
 }
+
+/// How close to its true centre an object must be found to count as placed ([`ArrangementScore::placed_share`]),
+/// centimetres: a robot reaching for it or an editor moving it can still tell which object it is.
+pub const PLACED_WITHIN_CM: f64 = 20.0;
 
 /// Scores a predicted arrangement: predictions are matched to ground-truth objects of the same model
 /// (the model of the ground-truth object carrying the predicted id), by an optimal assignment on centre
@@ -230,6 +239,15 @@ fn summarize(objects: Vec<ObjectScore>, predicted_count: usize) -> ArrangementSc
         ),
         mean_yaw_error_deg: mean(objects.iter().filter_map(|o| o.yaw_error_deg).collect()),
         mean_position_error_cm: mean(objects.iter().filter_map(|o| o.position_error_cm).collect()),
+        placed_share: if objects.is_empty() {
+            1.0
+        } else {
+            objects
+                .iter()
+                .filter(|o| o.position_error_cm.is_some_and(|d| d <= PLACED_WITHIN_CM))
+                .count() as f64
+                / objects.len() as f64
+        },
         missed: objects.len() - found,
         precision: if predicted_count == 0 {
             1.0
@@ -649,14 +667,46 @@ mod tests {
         let mean_iou = (rows[0].iou_percent + 200.0) / 4.0;
         assert!((score.mean_iou_percent.unwrap() - mean_iou).abs() < 1e-9);
         assert_eq!((score.precision, score.recall), (0.75, 0.75));
+        assert_eq!(score.placed_share, 0.75);
         let json = serde_json::to_string(&score).unwrap();
         assert!(json.contains("\"mean_position_error_cm\""));
+    }
+
+    #[test]
+    fn an_object_named_right_but_found_far_from_where_it_stands_is_not_placed() {
+        let truth = vec![
+            gt(1, "bed", pose(0.0, 0.0, 0.0)),
+            gt(2, "lamp", pose(0.0, 3.0, 0.0)),
+        ];
+        let predicted = |lamp_x: f64| {
+            evaluate_arrangement(
+                &truth,
+                &[
+                    PredictedObject {
+                        id: 1,
+                        object_to_world: pose(0.0, 0.19, 0.0),
+                    },
+                    PredictedObject {
+                        id: 2,
+                        object_to_world: pose(0.0, lamp_x, 0.0),
+                    },
+                ],
+            )
+        };
+        let far = predicted(3.25);
+        assert_eq!(
+            (far.precision, far.recall, far.placed_share),
+            (1.0, 1.0, 0.5)
+        );
+        assert_eq!(predicted(3.19).placed_share, 1.0);
     }
 
     #[test]
     fn empty_arrangements() {
         let none = evaluate_arrangement(&[gt(1, "bed", Pose::IDENTITY)], &[]);
         assert_eq!((none.missed, none.precision, none.recall), (1, 1.0, 0.0));
+        assert_eq!(none.placed_share, 0.0);
+        assert_eq!(evaluate_arrangement(&[], &[]).placed_share, 1.0);
         assert_eq!(
             (none.mean_iou_percent, none.mean_rotation_error_deg),
             (Some(0.0), None)

@@ -20,6 +20,7 @@ pub mod cloud;
 pub mod database;
 pub mod evidence;
 pub mod features;
+pub mod level;
 pub mod localize;
 pub mod merge;
 pub mod objects;

@@ -16,7 +16,9 @@
 
 use std::time::Instant;
 
+use glam::DMat3;
 use neuroom_core::camera::Equirect;
+use neuroom_core::camera_effects::rotate_panorama;
 use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
@@ -27,6 +29,7 @@ use serde::{Deserialize, Serialize};
 use crate::align::{AlignConfig, Alignment, Keyframe, align};
 use crate::database::Database;
 use crate::features::FeatureMap;
+use crate::level::{LevelConfig, estimate_up, leveling};
 use crate::shading::match_shading;
 use crate::sphere_image::SphereImage;
 use crate::yaw::{YawMatch, best_yaws};
@@ -61,6 +64,72 @@ pub struct LocalizeConfig {
     pub fine: AlignConfig,
     /// Rendering of the keyframes.
     pub render: RenderConfig,
+    /// When the best finalist's refined correlation is below [`CameraEvidence::strong`], this many
+    /// more finalists (the next best after the first rendered round) are refined to the end too and the
+    /// best correlation wins: a light the captures never saw can rank a wrong place first.
+    #[serde(default = "default_fallbacks")]
+    pub fallbacks: usize,
+    /// How the final correlation and the best other place become the camera's confidence.
+    #[serde(default)]
+    pub evidence: CameraEvidence,
+    /// Level a tilted panorama first ([`crate::level::estimate_up`]), locate it as a level one, then
+    /// refine the camera in all six degrees of freedom; `None`: the camera is taken to be level.
+    #[serde(default = "default_level")]
+    pub level: Option<LevelConfig>,
+}
+
+fn default_level() -> Option<LevelConfig> {
+    Some(LevelConfig::default())
+}
+
+fn default_fallbacks() -> usize {
+    2
+}
+
+/// How strong the evidence for a found camera is: the correlation of the aligned features with the
+/// empty room rendered there ([`Alignment::score`]) and how much better it is than the best other
+/// place the search found. A camera in the right place under a light unlike the captures' still
+/// correlates well above `weak`; one in the wrong place correlates only with the room's few edges that
+/// happen to line up.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraEvidence {
+    /// Correlation at which the evidence is nil.
+    pub weak: f64,
+    /// Correlation at which it is full.
+    pub strong: f64,
+    /// Another place (farther than [`CameraEvidence::other_place`] metres or radians) whose first-round
+    /// correlation comes within this fraction of the best one's makes the camera ambiguous: its
+    /// confidence is halved when the two tie, not at all when they differ by this fraction.
+    pub margin: f64,
+    /// Distance (metres, and radians of heading) beyond which a finalist counts as another place.
+    pub other_place: f64,
+    /// Confidence below which the camera is reported as not found reliably.
+    pub lost_below: f64,
+}
+
+impl Default for CameraEvidence {
+    fn default() -> Self {
+        Self {
+            weak: 0.25,
+            strong: 0.5,
+            margin: 0.15,
+            other_place: 0.5,
+            lost_below: 0.5,
+        }
+    }
+}
+
+impl CameraEvidence {
+    /// The confidence in [0, 1] of a camera whose final correlation is `score`, with the best
+    /// first-round correlation `first` and the best first-round correlation of another place
+    /// `other` (if any).
+    pub fn confidence(&self, score: f64, first: f64, other: Option<f64>) -> f64 {
+        let strength = ((score - self.weak) / (self.strong - self.weak)).clamp(0.0, 1.0);
+        let distinct = other.map_or(1.0, |o| {
+            ((first - o) / (self.margin * first.abs().max(1e-9))).clamp(0.0, 1.0)
+        });
+        strength * (0.5 + 0.5 * distinct)
+    }
 }
 
 fn default_distinct() -> f64 {
@@ -92,6 +161,9 @@ impl Default for LocalizeConfig {
                 ..AlignConfig::default()
             },
             render: crate::database::low_resolution_render(),
+            fallbacks: default_fallbacks(),
+            evidence: CameraEvidence::default(),
+            level: default_level(),
         }
     }
 }
@@ -105,6 +177,22 @@ pub struct CameraEstimate {
     pub score: f64,
     /// Best heading-search correlation.
     pub search_score: f64,
+    /// How sure the camera is, in [0, 1] ([`CameraEvidence::confidence`]).
+    #[serde(default)]
+    pub confidence: f64,
+    /// Why the camera may be wrong, when its confidence is below [`CameraEvidence::lost_below`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
+    /// The chosen camera's correlation after the first rendered round, and the best of another
+    /// place ([`CameraEvidence::other_place`] away) in that round, if any: how distinct it is.
+    #[serde(default)]
+    pub first_round: [f64; 2],
+    /// Finalists refined to the end (1, or more when the best one's evidence was weak).
+    #[serde(default)]
+    pub tried: usize,
+    /// The camera's tilt from level found in the panorama before it was located (degrees).
+    #[serde(default)]
+    pub tilt_deg: f64,
     /// Seconds: heading search, coarse alignment, rendered refinement.
     pub seconds: [f64; 3],
 }
@@ -118,6 +206,11 @@ impl CameraEstimate {
 
 /// Finds the camera of `panorama` (a full panorama, or a photo on its sphere) in the room whose
 /// empty-room scene (no objects) is `scene`, using `db`.
+///
+/// A full panorama whose edges show the camera tilted by at least [`LevelConfig::min_tilt_deg`] is
+/// levelled for the heading search and the coarse alignment, which assume a level camera; its
+/// candidates are then refined in six degrees of freedom against the panorama as taken. Otherwise the
+/// rendered rounds keep the camera upright but for the last, which frees its tilt too.
 pub fn localize<F: Field>(
     scene: &Scene<F>,
     db: &Database,
@@ -128,10 +221,105 @@ pub fn localize<F: Field>(
         return Err("the localization database has no panoramas".into());
     }
     let t0 = Instant::now();
-    let small = panorama.downsample(db.width, db.height);
+    let to_level = levelling(panorama, config);
+    let levelled = match to_level {
+        Some(l) => Some(SphereImage::panorama(
+            rotate_panorama(&panorama.rgb, &l.transpose()).map_err(|e| e.to_string())?,
+        )),
+        None => None,
+    };
+    let small = levelled
+        .as_ref()
+        .unwrap_or(panorama)
+        .downsample(db.width, db.height);
     let matches = search(db, &small, config);
     let search_score = matches.first().map_or(0.0, |m| m.score);
     let t1 = Instant::now();
+    let inside = |a: &Alignment| {
+        let t = a.camera_to_world.translation.as_vec3();
+        let room = &scene.background;
+        t.cmpge(room.bounds_min).all() && t.cmple(room.bounds_max).all()
+    };
+    let coarse = coarse_candidates(db, &small, &matches, &inside, config);
+    // A levelled candidate's camera, turned back into the panorama's own frame.
+    let coarse: Vec<Alignment> = coarse
+        .into_iter()
+        .map(|a| match to_level {
+            Some(l) => Alignment {
+                camera_to_world: Pose::new(
+                    a.camera_to_world.rotation * l,
+                    a.camera_to_world.translation,
+                ),
+                ..a
+            },
+            None => a,
+        })
+        .collect();
+    let t2 = Instant::now();
+    let six_dof = LocalizeConfig {
+        fine: AlignConfig {
+            upright: false,
+            ..config.fine.clone()
+        },
+        ..config.clone()
+    };
+    let (first, rest) = config.fine_widths.split_first().unzip();
+    let rest = rest.unwrap_or(&[]);
+    let (upright_rounds, last) = match (to_level, rest.split_last()) {
+        (None, Some((last, before))) => (before, std::slice::from_ref(last)),
+        _ => (&[][..], rest),
+    };
+    let early = if to_level.is_some() { &six_dof } else { config };
+    // A refinement that leaves the room (a photo of a bare wall can slide off) keeps its start.
+    let within = |refined: Alignment, start: &Alignment| {
+        if inside(&refined) { refined } else { *start }
+    };
+    let mut rounds: Vec<Alignment> = coarse
+        .par_iter()
+        .map(|c| {
+            let first = first.map(std::slice::from_ref).unwrap_or(&[]);
+            within(refine(scene, panorama, c, first, early), c)
+        })
+        .collect();
+    rounds.sort_by(|a, b| b.score.total_cmp(&a.score));
+    let finished = finish(&rounds, config, |start| {
+        let upright = within(refine(scene, panorama, start, upright_rounds, early), start);
+        within(refine(scene, panorama, &upright, last, &six_dof), &upright)
+    });
+    let t3 = Instant::now();
+    let mut estimate = judged(&finished, &rounds, &config.evidence);
+    estimate.search_score = search_score;
+    estimate.tilt_deg = to_level.map_or(0.0, |l| rotation_angle(&l).to_degrees());
+    estimate.seconds = [
+        (t1 - t0).as_secs_f64(),
+        (t2 - t1).as_secs_f64(),
+        (t3 - t2).as_secs_f64(),
+    ];
+    Ok(estimate)
+}
+
+/// The rotation that levels `panorama` (camera frame → level frame), when it is a full panorama whose
+/// edges show a tilt of at least [`LevelConfig::min_tilt_deg`].
+fn levelling(panorama: &SphereImage, config: &LocalizeConfig) -> Option<DMat3> {
+    let level = config.level.as_ref()?;
+    if panorama.seen.is_some() {
+        return None;
+    }
+    estimate_up(&panorama.rgb, level)
+        .map(leveling)
+        .filter(|l| rotation_angle(l).to_degrees() >= level.min_tilt_deg)
+}
+
+/// The heading search's `matches` aligned to their database panoramas (`small` is the query at the
+/// database's size), those that stay in the room (`inside`), distinct, best first; when every one
+/// slid out, the search's own database poses.
+fn coarse_candidates(
+    db: &Database,
+    small: &SphereImage,
+    matches: &[YawMatch],
+    inside: &(dyn Fn(&Alignment) -> bool + Sync),
+    config: &LocalizeConfig,
+) -> Vec<Alignment> {
     let mut coarse: Vec<Alignment> = matches
         .par_iter()
         .map(|m| {
@@ -142,17 +330,11 @@ pub fn localize<F: Field>(
                 camera_to_world: entry.camera_to_world(),
             };
             let init = Pose::from_yaw_translation(m.yaw, entry.position.as_dvec3());
-            align(&keyframe, &small, &init, &config.coarse)
+            align(&keyframe, small, &init, &config.coarse)
         })
         .collect();
-    let inside = |a: &Alignment| {
-        let t = a.camera_to_world.translation.as_vec3();
-        let room = &scene.background;
-        t.cmpge(room.bounds_min).all() && t.cmple(room.bounds_max).all()
-    };
-    coarse.retain(inside);
+    coarse.retain(|a| inside(a));
     if coarse.is_empty() {
-        // Every alignment slid out of the room: the heading search's database poses stand.
         coarse = matches
             .iter()
             .map(|m| Alignment {
@@ -165,36 +347,91 @@ pub fn localize<F: Field>(
             .collect();
     }
     coarse.sort_by(|a, b| b.score.total_cmp(&a.score));
-    let coarse = distinct(coarse, config.distinct, config.finalists.max(1));
-    let t2 = Instant::now();
-    let (first, rest) = config.fine_widths.split_first().unzip();
-    // A refinement that leaves the room (a photo of a bare wall can slide off) keeps its start.
-    let within = |refined: Alignment, start: &Alignment| {
-        if inside(&refined) { refined } else { *start }
-    };
-    let mut best = coarse
-        .par_iter()
-        .map(|c| {
-            let first = first.map(std::slice::from_ref).unwrap_or(&[]);
-            within(refine(scene, panorama, c, first, config), c)
-        })
-        .max_by(|a, b| a.score.total_cmp(&b.score))
-        .expect("at least one candidate");
-    best = within(
-        refine(scene, panorama, &best, rest.unwrap_or(&[]), config),
-        &best,
-    );
-    let t3 = Instant::now();
-    Ok(CameraEstimate {
+    distinct(coarse, config.distinct, config.finalists.max(1))
+}
+
+/// The estimate of the `finished` camera, its confidence judged from its correlation and the best
+/// other place among the first rendered `rounds` ([`CameraEvidence`]); timings and the search's
+/// score are left for the caller.
+fn judged(finished: &Finished, rounds: &[Alignment], evidence: &CameraEvidence) -> CameraEstimate {
+    let best = finished.best;
+    let other = rounds
+        .iter()
+        .find(|a| !same_place(a, &best, evidence.other_place))
+        .map(|a| a.score);
+    let confidence = evidence.confidence(best.score, finished.first_round, other);
+    let warning = (confidence < evidence.lost_below).then(|| {
+        let rival = other.map_or(String::new(), |o| {
+            format!(
+                ", another place correlates {o:.2} against {:.2}",
+                finished.first_round
+            )
+        });
+        format!(
+            "the camera is not found reliably (confidence {confidence:.2}: correlation {:.2} with \
+             the empty room, {} of {} candidates tried{rival}); the arrangement may be turned or moved",
+            best.score,
+            finished.tried,
+            rounds.len(),
+        )
+    });
+    CameraEstimate {
         camera_to_world: best.camera_to_world.to_rows(),
         score: best.score,
-        search_score,
-        seconds: [
-            (t1 - t0).as_secs_f64(),
-            (t2 - t1).as_secs_f64(),
-            (t3 - t2).as_secs_f64(),
-        ],
-    })
+        search_score: 0.0,
+        confidence,
+        warning,
+        first_round: [finished.first_round, other.unwrap_or(f64::NAN)],
+        tried: finished.tried,
+        tilt_deg: 0.0,
+        seconds: [0.0; 3],
+    }
+}
+
+/// The angle of rotation `r` (radians).
+fn rotation_angle(r: &DMat3) -> f64 {
+    ((r.x_axis.x + r.y_axis.y + r.z_axis.z - 1.0) / 2.0)
+        .clamp(-1.0, 1.0)
+        .acos()
+}
+
+/// The best of the finalists refined to the end, and how many were.
+struct Finished {
+    best: Alignment,
+    /// Its correlation after the first rendered round.
+    first_round: f64,
+    tried: usize,
+}
+
+/// Refines `rounds` (best first) to the end with `refine`: the best one, then while the best so far
+/// correlates below the strong evidence, up to [`LocalizeConfig::fallbacks`] more.
+fn finish(
+    rounds: &[Alignment],
+    config: &LocalizeConfig,
+    refine: impl Fn(&Alignment) -> Alignment,
+) -> Finished {
+    let mut finished = Finished {
+        best: refine(&rounds[0]),
+        first_round: rounds[0].score,
+        tried: 1,
+    };
+    for start in rounds.iter().skip(1).take(config.fallbacks) {
+        if finished.best.score >= config.evidence.strong {
+            break;
+        }
+        let done = refine(start);
+        finished.tried += 1;
+        if done.score > finished.best.score {
+            (finished.best, finished.first_round) = (done, start.score);
+        }
+    }
+    finished
+}
+
+/// Whether two cameras stand within `radius` metres and radians of heading of each other.
+fn same_place(a: &Alignment, b: &Alignment, radius: f64) -> bool {
+    let (pa, pb) = (&a.camera_to_world, &b.camera_to_world);
+    pa.translation.distance(pb.translation) < radius && angle_between(pa.yaw(), pb.yaw()) < radius
 }
 
 /// Heading search over the database with two kinds of features: signed log-luminance gradients
@@ -239,12 +476,7 @@ fn search(db: &Database, small: &SphereImage, config: &LocalizeConfig) -> Vec<Ya
 fn distinct(sorted: Vec<Alignment>, radius: f64, keep: usize) -> Vec<Alignment> {
     let mut out: Vec<Alignment> = Vec::with_capacity(keep);
     for a in sorted {
-        let same = |b: &Alignment| {
-            let (pa, pb) = (&a.camera_to_world, &b.camera_to_world);
-            pa.translation.distance(pb.translation) < radius
-                && angle_between(pa.yaw(), pb.yaw()) < radius
-        };
-        if !out.iter().any(same) {
+        if !out.iter().any(|b| same_place(&a, b, radius)) {
             out.push(a);
         }
         if out.len() == keep {

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use glam::Vec3;
-use neuroom_core::formats::{Arrangement, Room, read_arrangement, read_rgb, read_room};
+use neuroom_core::formats::{Arrangement, Room, read_rgb, read_room};
 use neuroom_core::image::RgbImage;
 use neuroom_core::metrics::{ArrangementScore, psnr};
 use neuroom_field::NeusField;
@@ -23,6 +23,7 @@ use neuroom_render::{Sampling, Scene};
 use neuroom_train::RoomModels;
 use serde::{Deserialize, Serialize};
 
+use crate::locate::listed_test_panoramas;
 use crate::scene::{build_scene, load_models};
 
 /// What `neuroom bench fit` runs.
@@ -465,40 +466,35 @@ fn room_box(room: &Room, models: &RoomModels) -> anyhow::Result<RoomBox> {
     })
 }
 
-/// The panoramas of `room/panoramas` with a ground-truth arrangement, sorted by name, or those named.
+/// The panoramas of `room/panoramas` with a ground-truth arrangement (as
+/// `neuroom::locate::test_panoramas` lists them), sorted by name, or those whose file stems are named.
 fn test_cases(room: &Path, names: &[String]) -> anyhow::Result<Vec<TestCase>> {
-    let dir = room.join("panoramas");
-    let mut stems: Vec<String> = std::fs::read_dir(&dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok())
-        .filter_map(|e| {
-            let name = e.file_name().to_string_lossy().into_owned();
-            let stem = name.strip_suffix(".png")?;
-            (!stem.contains('.') && dir.join(format!("{stem}.json")).is_file())
-                .then(|| stem.to_string())
+    let mut cases: Vec<(String, PathBuf, Arrangement)> = listed_test_panoramas(room)?
+        .into_iter()
+        .map(|(path, truth)| {
+            let file = path.file_name().unwrap_or_default().to_string_lossy();
+            (crate::inspect::image_stem(&file).to_string(), path, truth)
         })
         .collect();
-    stems.sort();
+    for n in names {
+        anyhow::ensure!(
+            cases.iter().any(|(stem, _, _)| stem == n),
+            "{}: no panorama `{n}` (PNG or JPEG) with a ground truth `{n}.json`",
+            room.join("panoramas").display()
+        );
+    }
     if !names.is_empty() {
-        for n in names {
-            anyhow::ensure!(
-                stems.contains(n),
-                "{}: no panorama `{n}.png` with a ground truth `{n}.json`",
-                dir.display()
-            );
-        }
-        stems.retain(|s| names.contains(s));
+        cases.retain(|(stem, _, _)| names.contains(stem));
     }
     anyhow::ensure!(
-        !stems.is_empty(),
+        !cases.is_empty(),
         "{}: no panorama with a ground-truth arrangement",
-        dir.display()
+        room.join("panoramas").display()
     );
-    stems
+    cases
         .into_iter()
-        .map(|name| {
-            let image = read_rgb(dir.join(format!("{name}.png")))?.image;
-            let truth = read_arrangement(dir.join(format!("{name}.json")))?;
+        .map(|(name, path, truth)| {
+            let image = read_rgb(&path)?.image;
             Ok(TestCase { name, image, truth })
         })
         .collect()
@@ -636,6 +632,6 @@ mod tests {
             .err()
             .unwrap()
             .to_string();
-        assert!(err.contains("`x.png`"), "{err}");
+        assert!(err.contains("`x`"), "{err}");
     }
 }

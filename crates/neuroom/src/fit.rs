@@ -95,7 +95,7 @@ pub fn fit_panorama(
         .unwrap_or_default();
     let mut solved = solved_arrangement(&start, &report, &name);
     if let Some(ctx) = &check {
-        solved = check_fit(ctx, &image, &start, solved, &locate_config);
+        solved = check_fit(ctx, &image, &start, solved, &locate_config)?;
     }
     let outputs = write_fit(out, &solved, &report, &result)?;
     Ok((outputs, report))

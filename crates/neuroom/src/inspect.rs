@@ -377,15 +377,15 @@ fn inspect_panoramas(
         .collect())
 }
 
-/// A panorama is a colour image that is not one of the ground-truth side files.
-fn is_panorama_image(name: &str) -> bool {
+/// A panorama is a colour image (PNG or JPEG) that is not one of the ground-truth side files.
+pub(crate) fn is_panorama_image(name: &str) -> bool {
     let lower = name.to_ascii_lowercase();
     let image = lower.ends_with(".png") || lower.ends_with(".jpg") || lower.ends_with(".jpeg");
     image && !lower.ends_with(".depth.png") && !lower.ends_with(".mask.png")
 }
 
 /// `bedroom_a0` for `bedroom_a0.png`.
-fn image_stem(name: &str) -> &str {
+pub(crate) fn image_stem(name: &str) -> &str {
     name.rsplit_once('.').map_or(name, |(s, _)| s)
 }
 

@@ -16,11 +16,14 @@ pub mod locate_photos;
 pub mod relight;
 pub mod scene;
 pub mod score;
+pub mod suite;
 pub mod synth;
 pub mod tour;
 pub mod train;
 pub mod view;
 
 pub use inspect::{RoomReport, inspect_room};
+/// What a real camera does to a panorama (`neuroom bench locate --camera-effect`).
+pub use neuroom_core::camera_effects::CameraEffect;
 /// room.json, for callers that name objects (`neuroom bench locate --objects`).
 pub use neuroom_core::formats::{Room, read_room};

@@ -8,6 +8,7 @@ use std::time::Instant;
 use anyhow::Context as _;
 use glam::Vec3;
 use neuroom_core::camera::Pinhole;
+use neuroom_core::camera_effects::CameraEffect;
 use neuroom_core::formats::{
     self, ArrangedObject, Arrangement, Room, RoomObject, read_rgb, read_room,
 };
@@ -342,12 +343,23 @@ impl LocateContext {
 pub struct Located {
     /// The camera.
     pub camera: CameraEstimate,
+    /// The level camera at the same place and heading that the object search looked from, at the
+    /// panorama levelled to it ([`Located::search_pose`]); the camera itself when it was level.
+    #[serde(default)]
+    pub search_camera: [[f64; 4]; 4],
     /// Detected regions.
     pub detections: usize,
     /// The objects placed, with their scores.
     pub found: Vec<Found>,
     /// Seconds: camera, objects.
     pub seconds: [f64; 2],
+}
+
+impl Located {
+    /// The camera the object search looked from, with which its view is judged.
+    pub fn search_pose(&self) -> Pose {
+        Pose::from_rows_unchecked(&self.search_camera)
+    }
 }
 
 /// The image `locate` understands.
@@ -397,18 +409,21 @@ impl QueryImage {
 }
 
 /// Locates `query` in the room of `ctx`: camera, detections, objects and initial poses; returns the
-/// arrangement (FORMAT.md, with the camera; `image_name` names the image file; a photo's intrinsics are
-/// recorded as `camera`), the details (whose camera is the panorama frame) and the query's view at the
-/// found camera ([`object_view`]), in which arrangements are judged.
+/// arrangement (FORMAT.md, with the camera, its `camera_confidence` and any `warnings`; `image_name`
+/// names the image file; a photo's intrinsics are recorded as `camera`), the details (whose camera is
+/// the panorama frame) and the query's view at the found camera ([`object_view`]), in which
+/// arrangements are judged.
 pub fn locate_image(
     ctx: &LocateContext,
     query: &QueryImage,
     image_name: &str,
     config: &LocateConfig,
 ) -> anyhow::Result<(Arrangement, Located, View)> {
-    let (located, view) = locate_view(ctx, query, image_name, config)?;
-    let mut arrangement = arrangement_of(ctx, &located.found, query, &located.camera.pose());
-    arrangement.image = image_name.to_string();
+    let views = [(query.clone(), image_name.to_string())];
+    let (arrangement, mut located, mut object_views) = locate_views(ctx, &views, config)?;
+    let (Some(located), Some(view)) = (located.pop(), object_views.pop()) else {
+        anyhow::bail!("{image_name}: nothing located");
+    };
     Ok((arrangement, located, view))
 }
 
@@ -437,6 +452,18 @@ pub fn locate_views(
     };
     let mut arrangement = arrangement_of(ctx, &merged, first, &located[0].camera.pose());
     arrangement.image = first_name.clone();
+    arrangement.extra.insert(
+        "camera_confidence".into(),
+        located[0].camera.confidence.into(),
+    );
+    let warnings: Vec<String> = views
+        .iter()
+        .zip(&located)
+        .filter_map(|((_, name), l)| Some(format!("{name}: {}", l.camera.warning.as_ref()?)))
+        .collect();
+    if !warnings.is_empty() {
+        arrangement.extra.insert("warnings".into(), warnings.into());
+    }
     let listed: Vec<serde_json::Value> = views
         .iter()
         .zip(&located)
@@ -464,7 +491,7 @@ fn locate_view(
     let camera = localize(&ctx.scene, &ctx.database, &sphere, &config.localize)
         .map_err(|m| anyhow::anyhow!("{image_name}: {m}"))?;
     let t1 = Instant::now();
-    let pose = camera.pose();
+    let (sphere, pose) = levelled_for_search(sphere, &camera.pose())?;
     let view = object_view(ctx, &sphere, &pose, config);
     let detections = detect_objects(ctx, &view, config);
     let input = SearchInput {
@@ -477,11 +504,31 @@ fn locate_view(
     let found = find_objects(&input, &config.search);
     let located = Located {
         camera,
+        search_camera: pose.to_rows(),
         detections: detections.len(),
         found,
         seconds: [(t1 - t0).as_secs_f64(), t1.elapsed().as_secs_f64()],
     };
     Ok((located, view))
+}
+
+/// Tilts of the found camera below this (degrees) are left to the object search, which handles any
+/// camera pose; larger ones are levelled first, as its hypotheses follow the image's columns.
+const SEARCH_LEVEL_TILT_DEG: f64 = 0.5;
+
+/// The panorama `sphere` taken from `camera`, as a level camera at the same place and heading would
+/// have taken it, and that camera: what the object search looks at. Photos, and cameras tilted less
+/// than [`SEARCH_LEVEL_TILT_DEG`], stay as they are.
+fn levelled_for_search(sphere: SphereImage, camera: &Pose) -> anyhow::Result<(SphereImage, Pose)> {
+    let level = Pose::from_yaw_translation(camera.yaw(), camera.translation);
+    let to_level = level.rotation.transpose() * camera.rotation;
+    let tilt = neuroom_core::metrics::rotation_error_deg(level.rotation, camera.rotation);
+    if sphere.seen.is_some() || tilt < SEARCH_LEVEL_TILT_DEG {
+        return Ok((sphere, *camera));
+    }
+    let rgb = neuroom_core::camera_effects::rotate_panorama(&sphere.rgb, &to_level.transpose())
+        .map_err(|e| anyhow::anyhow!("levelling the panorama: {e}"))?;
+    Ok((SphereImage::panorama(rgb), level))
 }
 
 /// The arrangement of `found` seen by `query` from the panorama frame `camera` (its image left empty).
@@ -642,7 +689,7 @@ pub fn locate(
             )?;
             let report = result.report();
             let solved = crate::fit::solved_arrangement(&arrangement, &report, name);
-            let camera = located[0].camera.pose();
+            let camera = located[0].search_pose();
             let view = &object_views[0];
             let solved = keep_better_poses(&ctx, view, &camera, &arrangement, solved, config);
             crate::fit::write_fit(out, &solved, &report, &result)?;
@@ -736,7 +783,7 @@ fn search_objective(
     truth: &Arrangement,
     config: &LocateConfig,
 ) -> SearchObjective {
-    let input = judging_input(ctx, view, located.camera.pose());
+    let input = judging_input(ctx, view, located.search_pose());
     SearchObjective {
         found: arrangement_error(&input, &located.found, &config.search),
         truth: arrangement_error(&input, &placed_objects(ctx, truth), &config.search),
@@ -814,11 +861,13 @@ pub fn check_fit(
     initial: &Arrangement,
     solved: Arrangement,
     config: &LocateConfig,
-) -> Arrangement {
-    let camera = initial.camera_to_world;
+) -> anyhow::Result<Arrangement> {
     let sphere = QueryImage::Panorama(image.clone()).sphere();
+    let (sphere, camera) = levelled_for_search(sphere, &initial.camera_to_world)?;
     let view = object_view(ctx, &sphere, &camera, config);
-    keep_better_poses(ctx, &view, &camera, initial, solved, config)
+    Ok(keep_better_poses(
+        ctx, &view, &camera, initial, solved, config,
+    ))
 }
 
 /// `kept` (objects at their pose in `initial` or in `solved`) with each object that stands on another
@@ -913,6 +962,10 @@ pub struct LocateMean {
     pub are_up_to_symmetry_deg: f64,
     /// Mean position error of the found objects (cm).
     pub ape_cm: f64,
+    /// Mean share of the objects found within 20 cm of where they stand
+    /// ([`ArrangementScore::placed_share`]).
+    #[serde(default)]
+    pub placed_share: f64,
     /// Mean seconds per panorama.
     pub seconds: f64,
     /// Mean IoU, ARE and APE of the initial poses, when the fit ran after them.
@@ -922,20 +975,28 @@ pub struct LocateMean {
 
 /// `neuroom bench locate`: locates every test panorama of `room` (those with ground truth) and scores
 /// camera, identification and initial poses, and with `fit` the poses the holistic fit solves from
-/// them. `each` sees every panorama's score as it is measured.
+/// them. With `effect`, each panorama is first turned into what a camera with that effect would have
+/// delivered (and a tilt tilts its true camera). `each` sees every panorama's score as it is measured.
 pub fn bench_locate(
     room: &Path,
     models: &Path,
     config: &LocateConfig,
     fit: Option<&FitConfig>,
+    effect: Option<&CameraEffect>,
     each: &mut dyn FnMut(&PanoramaScore),
 ) -> anyhow::Result<(Vec<PanoramaScore>, LocateMean)> {
     let ctx = LocateContext::load(room, models, config)?;
     let symmetries = ShapeSymmetries::of_room(&ctx.room)?;
     let hints = crate::fit::relation_hints(&ctx.room);
     let mut scores = Vec::new();
-    for (png, truth) in test_panoramas(room)? {
-        let image = read_rgb(&png)?.image;
+    for (png, mut truth) in test_panoramas(room)? {
+        let mut image = read_rgb(&png)?.image;
+        if let Some(effect) = effect {
+            let affected = effect
+                .apply(&image, &truth.camera_to_world)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", png.display()))?;
+            (image, truth.camera_to_world) = (affected.image, affected.camera_to_world);
+        }
         let name = png
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -944,7 +1005,7 @@ pub fn bench_locate(
         let (initial, located, view) =
             locate_image(&ctx, &QueryImage::Panorama(image.clone()), &name, config)?;
         let initial_score = fit.map(|_| score_in_room(&ctx.room, &symmetries, &truth, &initial));
-        let camera = located.camera.pose();
+        let camera = located.search_pose();
         let arrangement = match fit {
             Some(fit) if !initial.objects.is_empty() => {
                 let result = crate::fit::fit_arrangement(
@@ -1009,6 +1070,7 @@ pub(crate) fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {
         are_deg: defined(&|s| s.objects.mean_rotation_error_deg),
         are_up_to_symmetry_deg: defined(&|s| s.objects.mean_rotation_error_up_to_symmetry_deg),
         ape_cm: defined(&|s| s.objects.mean_position_error_cm),
+        placed_share: mean(&|s| s.objects.placed_share),
         seconds: mean(&|s| s.seconds),
         initial: scores.iter().all(|s| s.initial.is_some()).then(|| {
             let of = |f: &dyn Fn(&ArrangementScore) -> Option<f64>| {
@@ -1023,16 +1085,28 @@ pub(crate) fn mean_scores(scores: &[PanoramaScore]) -> LocateMean {
     }
 }
 
-/// The test panoramas of a room folder: `panoramas/*.png` with a ground-truth `*.json` beside them.
+/// The test panoramas of a room folder: `panoramas/*.png` (or `.jpg`) with a ground-truth `*.json`
+/// beside them; an error when there is none.
 pub fn test_panoramas(room: &Path) -> anyhow::Result<Vec<(PathBuf, Arrangement)>> {
+    let out = listed_test_panoramas(room)?;
+    anyhow::ensure!(
+        !out.is_empty(),
+        "{}: no panorama with a ground-truth arrangement",
+        room.join("panoramas").display()
+    );
+    Ok(out)
+}
+
+/// [`test_panoramas`], possibly none.
+pub(crate) fn listed_test_panoramas(room: &Path) -> anyhow::Result<Vec<(PathBuf, Arrangement)>> {
     let dir = room.join("panoramas");
     let entries =
         std::fs::read_dir(&dir).with_context(|| format!("{}: cannot list", dir.display()))?;
     let mut paths: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
-            let name = p.to_string_lossy();
-            name.ends_with(".png") && !name.ends_with(".depth.png") && !name.ends_with(".mask.png")
+            p.file_name()
+                .is_some_and(|n| crate::inspect::is_panorama_image(&n.to_string_lossy()))
         })
         .collect();
     paths.sort();
@@ -1043,11 +1117,6 @@ pub fn test_panoramas(room: &Path) -> anyhow::Result<Vec<(PathBuf, Arrangement)>
             out.push((png, formats::read_arrangement(&json)?));
         }
     }
-    anyhow::ensure!(
-        !out.is_empty(),
-        "{}: no panorama with a ground-truth arrangement",
-        dir.display()
-    );
     Ok(out)
 }
 
@@ -1081,6 +1150,32 @@ mod tests {
             .iter()
             .map(|o| o.extra.contains_key("initial_pose"))
             .collect()
+    }
+
+    #[test]
+    fn test_panoramas_are_png_or_jpeg_images_with_a_truth_beside_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let panoramas = dir.path().join("panoramas");
+        std::fs::create_dir_all(&panoramas).unwrap();
+        let truth = Arrangement {
+            image: "a.png".into(),
+            ..arrangement(&[1.0])
+        };
+        for name in ["b.jpg", "a.png", "c.jpeg", "no_truth.jpg"] {
+            std::fs::write(panoramas.join(name), b"").unwrap();
+        }
+        for stem in ["a", "b", "c"] {
+            formats::write_arrangement(panoramas.join(format!("{stem}.json")), &truth).unwrap();
+        }
+        for side in ["a.depth.png", "a.mask.png"] {
+            std::fs::write(panoramas.join(side), b"").unwrap();
+        }
+        let found: Vec<String> = test_panoramas(dir.path())
+            .unwrap()
+            .iter()
+            .map(|(p, _)| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(found, ["a.png", "b.jpg", "c.jpeg"]);
     }
 
     #[test]
@@ -1154,7 +1249,7 @@ mod tests {
         solved.objects[2].object_to_world.translation.y += 0.3;
         let config = LocateConfig::default();
         let ctx = LocateContext::load(&room, &models, &config).unwrap();
-        let checked = check_fit(&ctx, &image, &truth, solved, &config);
+        let checked = check_fit(&ctx, &image, &truth, solved, &config).unwrap();
         assert_eq!(marked_initial(&checked), [false, false, true]);
         let stool = checked.objects[2].object_to_world.translation;
         assert!(stool.distance(truth.objects[2].object_to_world.translation) < 1e-3);

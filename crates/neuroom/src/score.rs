@@ -265,6 +265,7 @@ mod tests {
             mean_rotation_error_up_to_symmetry_deg: Some(2.0),
             mean_yaw_error_deg: Some(2.0),
             mean_position_error_cm: Some(3.5),
+            placed_share: 0.5,
             missed: 1,
             precision: 1.0,
             recall: 0.5,

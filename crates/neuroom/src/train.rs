@@ -32,14 +32,18 @@ pub struct TrainOptions {
 }
 
 impl TrainOptions {
-    /// The training configuration these options give.
+    /// The training configuration these options give. A step budget given without a time budget
+    /// replaces the default's time budget too: the model then trains exactly that many steps, whatever
+    /// the machine's load, and the same options give the same models.
     pub fn config(&self) -> TrainConfig {
         let mut c = TrainConfig::default();
         if let Some(s) = self.object_steps {
             c.object.steps = s;
+            c.object.time_budget_s = None;
         }
         if let Some(s) = self.background_steps {
             c.background.steps = s;
+            c.background.time_budget_s = None;
         }
         if let Some(t) = self.object_seconds {
             c.object.time_budget_s = Some(t);

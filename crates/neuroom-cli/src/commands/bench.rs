@@ -56,9 +56,13 @@ enum Which {
 #[derive(clap::Args)]
 struct LocateArgs {
     /// Room folder (its `panoramas/` hold the test panoramas and their ground truth).
-    room: PathBuf,
+    #[arg(required_unless_present = "suite")]
+    room: Option<PathBuf>,
     /// The room's model folder (as written by `neuroom train`).
-    models: PathBuf,
+    #[arg(required_unless_present = "suite")]
+    models: Option<PathBuf>,
+    #[command(flatten)]
+    suite: super::bench_suite::SuiteArgs,
     /// Compare objects with the empty room under a global colour gain only, not re-shaded by the
     /// surface normal (the ablation of that step).
     #[arg(long)]
@@ -74,8 +78,9 @@ struct LocateArgs {
     /// panels) `studio` placed them better, on the synthetic presets a little worse (see the README).
     #[arg(long)]
     object_light: Option<String>,
-    /// Also run the holistic fit from the initial poses (as `neuroom locate` does) and score its poses.
-    #[arg(long, conflicts_with = "photos")]
+    /// Also run the holistic fit from the initial poses (as `neuroom locate` does) and score its poses
+    /// (the suite runs it unless `--no-fit`).
+    #[arg(long, conflicts_with_all = ["photos", "suite"])]
     fit: bool,
     /// Locate photos cut from the panoramas instead: this many per panorama, at evenly spaced headings.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=36))]
@@ -86,6 +91,11 @@ struct LocateArgs {
     /// Also merge each panorama's photos as views of one arrangement, scored against all its objects.
     #[arg(long, requires = "photos")]
     merge: bool,
+    /// Give every panorama what a real camera does to it first: `tilt` (10°), `underexposed` (×0.5),
+    /// `overexposed` (×2), `warm` or `cold` (another white balance), `jpeg` (quality 80) or `noise`
+    /// (shot and read noise); a tilt tilts the true camera too.
+    #[arg(long, value_parser = parse_effect, conflicts_with = "photos")]
+    camera_effect: Option<neuroom::CameraEffect>,
     /// Also print each true object's IoU, rotation and position errors (or that it was missed), and
     /// the object search's objective at the found and at the true poses.
     #[arg(long)]
@@ -308,7 +318,10 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
         ..neuroom_fit::FitConfig::refinement()
     };
     let fit = a.fit.then_some(&fit);
-    let room = a.objects.then(|| neuroom::read_room(&a.room)).transpose()?;
+    let room = match (&a.room, a.objects) {
+        (Some(dir), true) => Some(neuroom::read_room(dir)?),
+        _ => None,
+    };
     let mut each = |s: &neuroom::locate::PanoramaScore| {
         if let Some(i) = &s.initial {
             println!(
@@ -320,11 +333,22 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
             );
         }
         println!(
-            "{}: camera {:.2} cm {:.3}°, P {:.2} R {:.2}, IoU {:.1} %, ARE {:.1}° ({:.1}° up to \
-             symmetry), APE {:.1} cm, {:.1} s",
+            "{}: camera {:.2} cm {:.3}° (tilt {:.1}°, score {:.2}, first round {:.2} / other {:.2}, \
+             confidence {:.2}{}), P {:.2} R {:.2}, IoU {:.1} %, ARE {:.1}° ({:.1}° up to symmetry), APE {:.1} cm, \
+             placed {:.0} %, {:.1} s",
             s.panorama,
             s.camera_position_error_cm,
             s.camera_rotation_error_deg,
+            s.located.camera.tilt_deg,
+            s.located.camera.score,
+            s.located.camera.first_round[0],
+            s.located.camera.first_round[1],
+            s.located.camera.confidence,
+            if s.located.camera.warning.is_some() {
+                ", said lost"
+            } else {
+                ""
+            },
             s.objects.precision,
             s.objects.recall,
             s.objects.mean_iou_percent.unwrap_or(0.0),
@@ -333,6 +357,7 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
                 .mean_rotation_error_up_to_symmetry_deg
                 .unwrap_or(f64::NAN),
             s.objects.mean_position_error_cm.unwrap_or(f64::NAN),
+            100.0 * s.objects.placed_share,
             s.seconds
         );
         if let Some(room) = &room {
@@ -355,6 +380,12 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
             println!("{}", serde_json::to_string(s).unwrap_or_default());
         }
     };
+    if !a.suite.suite.is_empty() {
+        return super::bench_suite::run_suite(&a.suite, config, a.camera_effect, &mut each, a.json);
+    }
+    let (Some(room_dir), Some(models)) = (&a.room, &a.models) else {
+        anyhow::bail!("bench locate needs ROOM and MODELS, or --suite DIR…");
+    };
     let mean = match a.photos {
         Some(n) => {
             anyhow::ensure!(
@@ -369,16 +400,29 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
                 ..Default::default()
             };
             let bench = neuroom::locate_photos::bench_locate_photos(
-                &a.room, &a.models, &config, &cut, &mut each,
+                room_dir, models, &config, &cut, &mut each,
             )?;
             if let Some((_, merged)) = &bench.merged {
                 print_locate_mean("merged photos", merged, a.json)?;
             }
             bench.photos.1
         }
-        None => neuroom::locate::bench_locate(&a.room, &a.models, &config, fit, &mut each)?.1,
+        None => {
+            let effect = a.camera_effect.as_ref();
+            neuroom::locate::bench_locate(room_dir, models, &config, fit, effect, &mut each)?.1
+        }
     };
     print_locate_mean("", &mean, a.json)
+}
+
+/// A camera effect by name ([`neuroom::CameraEffect::named`]).
+fn parse_effect(name: &str) -> Result<neuroom::CameraEffect, String> {
+    neuroom::CameraEffect::named(name).ok_or_else(|| {
+        format!(
+            "unknown camera effect `{name}` (one of {})",
+            neuroom::CameraEffect::NAMES.join(", ")
+        )
+    })
 }
 
 /// Prints the mean of `neuroom bench locate` (labelled `label` when not empty), and with `json` as JSON.
@@ -387,34 +431,12 @@ fn print_locate_mean(
     mean: &neuroom::locate::LocateMean,
     json: bool,
 ) -> anyhow::Result<()> {
-    let label = if label.is_empty() {
-        String::new()
-    } else {
-        format!("{label}: ")
-    };
-    println!(
-        "{label}mean of {}: camera {:.2} cm (max {:.2}) {:.3}° (max {:.3}), P {:.2} R {:.2}, \
-         IoU {:.1} %, ARE {:.1}° ({:.1}° up to symmetry), APE {:.1} cm, {:.1} s per image",
-        mean.panoramas,
-        mean.camera_position_error_cm,
-        mean.camera_position_error_max_cm,
-        mean.camera_rotation_error_deg,
-        mean.camera_rotation_error_max_deg,
-        mean.precision,
-        mean.recall,
-        mean.iou_percent,
-        mean.are_deg,
-        mean.are_up_to_symmetry_deg,
-        mean.ape_cm,
-        mean.seconds
-    );
-    if let Some([iou, are, ape]) = mean.initial {
-        println!("mean of the initial poses: IoU {iou:.1} %, ARE {are:.1}°, APE {ape:.1} cm");
-    }
+    let text_label = if label.is_empty() { "mean" } else { label };
+    println!("{}", super::bench_suite::describe_mean(text_label, mean));
     if json {
         let mut value = serde_json::to_value(mean)?;
         if !label.is_empty() {
-            value["of"] = label.trim_end_matches(": ").into();
+            value["of"] = label.into();
         }
         println!("{value}");
     }

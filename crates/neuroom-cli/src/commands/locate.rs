@@ -91,15 +91,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     )?;
     for (image, located) in args.images.iter().zip(&outputs.located) {
         println!(
-            "{}: camera found in {:.1} s (alignment score {:.3}); {} detections, {} objects placed in \
-             {:.1} s",
+            "{}: camera found in {:.1} s (alignment score {:.3}, confidence {:.2}); {} detections, {} \
+             objects placed in {:.1} s",
             image.display(),
             located.seconds[0],
             located.camera.score,
+            located.camera.confidence,
             located.detections,
             located.found.len(),
             located.seconds[1]
         );
+        if let Some(warning) = &located.camera.warning {
+            eprintln!("warning: {}: {warning}", image.display());
+        }
     }
     if !outputs.fitted && !args.no_fit && (args.images.len() > 1 || args.intrinsics.is_some()) {
         println!("the holistic fit takes one panorama: the arrangement holds the initial poses");

@@ -1,6 +1,7 @@
 //! One module per subcommand: its arguments and how it calls the library.
 
 pub mod bench;
+pub mod bench_suite;
 pub mod demo;
 pub mod edit;
 pub mod eval;

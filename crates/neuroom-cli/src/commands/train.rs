@@ -15,10 +15,11 @@ pub struct Args {
     /// Folder that receives `<room name>/` with one model per object capture and the background.
     #[arg(long)]
     out: PathBuf,
-    /// Most optimisation steps per object model.
+    /// Optimisation steps per object model; without `--object-seconds`, exactly this many, whatever
+    /// the machine's load (reproducible).
     #[arg(long)]
     object_steps: Option<u64>,
-    /// Most optimisation steps for the background model.
+    /// Optimisation steps of the background model; without `--background-seconds`, exactly this many.
     #[arg(long)]
     background_steps: Option<u64>,
     /// Time budget per object model, seconds.
