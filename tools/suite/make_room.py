@@ -722,6 +722,17 @@ def inside_room(poly, size, margin=0.0):
     return all(margin <= x <= size[0] - margin and margin <= y <= size[1] - margin for x, y in poly)
 
 
+def stands_in_fixed(poly, z, height, fixed):
+    """Whether a footprint `poly` standing from `z - height / 2` to `z + height / 2` enters the fixed
+    furniture box `fixed` (an axis-aligned `min`, `max`): a movable object may not stand inside the
+    room's own furniture."""
+    lo, hi = fixed["min"], fixed["max"]
+    if z + height / 2 <= lo[2] or z - height / 2 >= hi[2]:
+        return False
+    box = [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])]
+    return polygons_overlap(poly, box)
+
+
 def sample_arrangement(cfg, sizes, rng):
     """Poses for every object following its role ("wall", "floor", "on:<name>"), no two footprints
     overlapping (objects on a supporter only against their neighbours on it), and a camera at least
@@ -764,6 +775,8 @@ def sample_arrangement(cfg, sizes, rng):
                 poly = footprint(xy, yaw, s)
                 if not inside_room(poly, size, 0.0):
                     continue
+                if any(stands_in_fixed(poly, z, s[2], f) for f in cfg["room"].get("fixed", [])):
+                    continue
                 clash = False
                 for other, (ox, oy, oz, oyaw) in poses.items():
                     same_level = abs(oz - z) < (sizes[other][2] + s[2]) / 2
@@ -782,9 +795,11 @@ def sample_arrangement(cfg, sizes, rng):
         clearance = cfg["panoramas"].get("camera_clearance", 0.5)
         for _try in range(500):
             cx, cy = rng.uniform(0.6, size[0] - 0.6), rng.uniform(0.6, size[1] - 0.6)
-            near = any(polygons_overlap(footprint((cx, cy), 0.0, [0.01, 0.01, 0.0], clearance),
-                                        footprint((ox, oy), oyaw, sizes[n]))
+            around = footprint((cx, cy), 0.0, [0.01, 0.01, 0.0], clearance)
+            near = any(polygons_overlap(around, footprint((ox, oy), oyaw, sizes[n]))
                        for n, (ox, oy, oz, oyaw) in poses.items())
+            spot = footprint((cx, cy), 0.0, [0.01, 0.01, 0.0])
+            near = near or any(stands_in_fixed(spot, 1.0, 2.0, f) for f in cfg["room"].get("fixed", []))
             if not near:
                 h = rng.uniform(*cfg["panoramas"]["height"])
                 return poses, (cx, cy, h, rng.uniform(-math.pi, math.pi))
