@@ -5,7 +5,7 @@
 
 Outputs (committed; rerun after changing this script):
   crates/neuroom-core/tests/corpus/gen_*       malformed or unusual files, one problem each
-  crates/neuroom-core/tests/rooms/tiny/        a complete, valid room of a few tiny files (FORMAT.md)
+  crates/neuroom-core/tests/rooms/tiny/        a complete, valid room of a few tiny files (docs/formats.md)
 
 PNG, Radiance HDR, OpenEXR and PLY files are written with the standard library only; the JPEG files need
 Pillow. Every file is deterministic.

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Independent validator for neuroom rooms (shared/FORMAT.md).
+"""Independent validator for neuroom rooms (docs/formats.md).
 
 Standard library only (json, zlib, struct, math): it shares no code with the Rust project, so a writer and
 a reader that agree with each other cannot hide a convention error from it.
@@ -1613,7 +1613,7 @@ def main(argv):
     import argparse
     import time
 
-    ap = argparse.ArgumentParser(description="Validate a neuroom room against shared/FORMAT.md (stdlib only).")
+    ap = argparse.ArgumentParser(description="Validate a neuroom room against docs/formats.md (stdlib only).")
     ap.add_argument("room", help="room folder (holding room.json)")
     ap.add_argument("--max-frames", type=int, default=6, help="frames decoded per capture (default 6)")
     ap.add_argument("--stride", type=int, default=4, help="pixel sampling step in captures (default 4)")

@@ -4,7 +4,7 @@
 //! - [`Pinhole`]: the nerfstudio / OpenGL frame (looks along −z, +y up, +x right) with OpenCV pixel
 //!   coordinates (row 0 on top) and the OPENCV distortion model (k1, k2, p1, p2). Stored depth is the
 //!   z-depth along the optical axis (positive in front of the camera).
-//! - [`Equirect`]: FORMAT.md's panorama frame (+x through the centre column, +y to the left, +z up).
+//! - [`Equirect`]: docs/formats.md's panorama frame (+x through the centre column, +y to the left, +z up).
 //!   Stored depth is the distance along the ray.
 //!
 //! Continuous pixel coordinates put the centre of pixel (u, v) at (u + 0.5, v + 0.5).
@@ -210,7 +210,7 @@ impl CameraModel for Pinhole {
     }
 }
 
-/// An equirectangular panorama camera in FORMAT.md's frame (+x centre column, +y left, +z up).
+/// An equirectangular panorama camera in docs/formats.md's frame (+x centre column, +y left, +z up).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Equirect {
     /// Image width in pixels, twice the height.
@@ -220,7 +220,7 @@ pub struct Equirect {
 }
 
 impl Equirect {
-    /// A panorama camera; FORMAT.md requires `width = 2 · height` (and both non-zero).
+    /// A panorama camera; docs/formats.md requires `width = 2 · height` (and both non-zero).
     pub fn new(width: u32, height: u32) -> Result<Self, String> {
         if height == 0 || width as u64 != 2 * height as u64 {
             return Err(format!(
@@ -417,7 +417,7 @@ mod tests {
         assert!((centre - DVec3::X).length() < 1e-15);
         assert!((cam.direction(DVec2::new(128.0, 128.0)) - DVec3::Y).length() < 1e-15);
         assert!((cam.direction(DVec2::new(256.0, 0.0)) - DVec3::Z).length() < 1e-15);
-        // FORMAT.md's formula at a pixel centre.
+        // docs/formats.md's formula at a pixel centre.
         let (u, v) = (37u32, 201u32);
         let lon = std::f64::consts::PI * (1.0 - 2.0 * (u as f64 + 0.5) / 512.0);
         let lat = std::f64::consts::PI * (0.5 - (v as f64 + 0.5) / 256.0);

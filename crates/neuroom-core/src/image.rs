@@ -1,6 +1,6 @@
 //! A plain row-major image buffer, used for colour (sRGB in [0, 1]), depth (metres) and instance ids.
 
-/// A `width × height` grid of pixels stored row by row, row 0 on top (FORMAT.md image convention).
+/// A `width × height` grid of pixels stored row by row, row 0 on top (docs/formats.md image convention).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image<T> {
     /// Number of columns.

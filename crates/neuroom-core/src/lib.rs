@@ -1,4 +1,4 @@
-//! The base of neuroom: geometry, cameras, images, metrics and every on-disk format of `FORMAT.md`.
+//! The base of neuroom: geometry, cameras, images, metrics and every on-disk format of `docs/formats.md`.
 //!
 //! Everything here is plain data and exact maths; nothing here learns or renders. Later crates build on
 //! these types so that the conventions (z-up world, OpenGL pinhole frames, the equirectangular panorama

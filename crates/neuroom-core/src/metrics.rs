@@ -1,4 +1,4 @@
-//! The metrics of FORMAT.md: box IoU, rotation (ARE) and position (APE) errors, identification precision
+//! The metrics of docs/formats.md: box IoU, rotation (ARE) and position (APE) errors, identification precision
 //! and recall for a whole arrangement, and PSNR / SSIM for images; beside ARE, the rotation error up to
 //! the turns an object's shape does not show (a vase has no heading to find).
 

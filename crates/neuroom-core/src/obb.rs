@@ -1,4 +1,4 @@
-//! Oriented boxes and their exact volume IoU (FORMAT.md's IoU metric).
+//! Oriented boxes and their exact volume IoU (docs/formats.md's IoU metric).
 //!
 //! The intersection of two boxes is a convex polyhedron. It is built by clipping the first box, kept as a
 //! closed set of outward-oriented faces, by the six half-spaces of the second (Sutherland–Hodgman on every

@@ -1,4 +1,4 @@
-//! Rigid poses: a proper rotation and a translation in metres, no scale (FORMAT.md).
+//! Rigid poses: a proper rotation and a translation in metres, no scale (docs/formats.md).
 
 use glam::{DMat3, DMat4, DVec3, DVec4, Mat3, Vec3};
 

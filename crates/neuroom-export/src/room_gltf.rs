@@ -16,7 +16,7 @@ use crate::mesh::SceneMeshes;
 /// The exported camera: where it stands and its lens.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ExportCamera {
-    /// The panorama camera's pose (FORMAT.md panorama frame: +x forward, +y left, +z up).
+    /// The panorama camera's pose (docs/formats.md panorama frame: +x forward, +y left, +z up).
     pub camera_to_world: Pose,
     /// Vertical field of view, radians.
     pub yfov: f64,

@@ -3,7 +3,7 @@
 //! labelled with the objects' names, the panorama camera's frame as axes, and the input panorama as a
 //! 2D image (Rerun has no equirectangular camera, so the image stands beside the 3D view).
 //!
-//! Everything is logged once, as static data, in the world frame of FORMAT.md (right-handed, z up,
+//! Everything is logged once, as static data, in the world frame of docs/formats.md (right-handed, z up,
 //! metres), which `world` declares as its view coordinates so that the viewer shows the room upright.
 //! Entity paths:
 //!
@@ -50,7 +50,7 @@ pub struct EncodedFile<'a> {
 pub struct RrdScene<'a> {
     /// The room's and the objects' meshes, as [`crate::mesh::scene_meshes`] extracts them.
     pub meshes: &'a SceneMeshes,
-    /// The panorama camera's pose (FORMAT.md panorama frame: +x forward, +y left, +z up).
+    /// The panorama camera's pose (docs/formats.md panorama frame: +x forward, +y left, +z up).
     pub camera_to_world: Pose,
     /// The input panorama, when known.
     pub panorama: Option<EncodedFile<'a>>,

@@ -132,7 +132,7 @@ pub struct FittedObject {
     pub light_code: Vec<f32>,
 }
 
-/// One solved object as written beside an arrangement (FORMAT.md lets outputs add fields).
+/// One solved object as written beside an arrangement (docs/formats.md lets outputs add fields).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FittedObjectReport {
     /// Its id.

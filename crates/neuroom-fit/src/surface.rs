@@ -9,7 +9,7 @@ use neuroom_field::Field;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-/// The face of the object's box a surface point was traced from (FORMAT.md: the front faces +x).
+/// The face of the object's box a surface point was traced from (docs/formats.md: the front faces +x).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Face {
     /// −x.

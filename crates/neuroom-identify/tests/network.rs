@@ -131,6 +131,7 @@ fn training_lowers_the_loss_and_then_segments_the_squares() {
         empty: upsample(&sample.empty),
         empty_depth: vec![2.0; 4 * W * H],
         seen: None,
+        light: None,
     };
     let detector = NetworkDetector {
         network: &network,

@@ -8,6 +8,7 @@
 use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
 use serde::{Deserialize, Serialize};
 
+use crate::local_light::RoomLight;
 use crate::shading::panorama_normals;
 use crate::sphere::neighbours;
 
@@ -23,6 +24,10 @@ pub struct View {
     /// Pixels the camera saw ([`crate::SphereImage::seen`]); `None` for a panorama, which saw them all.
     /// Nothing is looked for, or held against an object, where the camera saw nothing.
     pub seen: Option<Vec<bool>>,
+    /// The query's light relative to the captures' as it varies over the panorama, which `empty`
+    /// already shows and objects take where they stand ([`crate::local_light`]); `None`: one light
+    /// everywhere.
+    pub light: Option<RoomLight>,
 }
 
 impl View {
@@ -125,16 +130,22 @@ impl Detector for ResidualDetector {
 /// Per-channel gain from the empty room to the query: the median ratio of linear values over seen
 /// pixels with a depth (a changed light colour or exposure).
 pub fn room_gains(view: &View) -> [f32; 3] {
+    let depth: Vec<f32> = (view.empty_depth.iter().enumerate())
+        .map(|(p, d)| if view.sees(p) { *d } else { 0.0 })
+        .collect();
+    room_gains_of(&view.query, &view.empty, &depth)
+}
+
+/// [`room_gains`] of `query` against `empty` over the pixels with a depth.
+pub fn room_gains_of(query: &RgbImage, empty: &RgbImage, depth: &[f32]) -> [f32; 3] {
     std::array::from_fn(|c| {
-        let mut ratios: Vec<f32> = view
-            .query
+        let mut ratios: Vec<f32> = query
             .data
             .iter()
-            .zip(&view.empty.data)
-            .zip(&view.empty_depth)
-            .enumerate()
-            .filter(|(p, (_, d))| **d > 0.0 && view.sees(*p))
-            .map(|(_, ((q, e), _))| (srgb_to_linear(q[c]) + 1e-3) / (srgb_to_linear(e[c]) + 1e-3))
+            .zip(&empty.data)
+            .zip(depth)
+            .filter(|(_, d)| **d > 0.0)
+            .map(|((q, e), _)| (srgb_to_linear(q[c]) + 1e-3) / (srgb_to_linear(e[c]) + 1e-3))
             .collect();
         if ratios.is_empty() {
             return 1.0;
@@ -271,6 +282,7 @@ mod tests {
             empty,
             empty_depth: vec![2.0; w * h],
             seen: None,
+            light: None,
         };
         let found = ResidualDetector::default().detect(&view);
         assert_eq!(found.len(), 1);
@@ -295,6 +307,7 @@ mod tests {
             empty,
             empty_depth: vec![2.0; w * h],
             seen: None,
+            light: None,
         };
         let found = ResidualDetector::default().detect(&view);
         assert_eq!(found.len(), 1, "{found:?}");

@@ -21,6 +21,7 @@ pub mod database;
 pub mod evidence;
 pub mod features;
 pub mod level;
+pub mod local_light;
 pub mod localize;
 pub mod merge;
 pub mod objects;

@@ -222,10 +222,14 @@ pub fn localize<F: Field>(
     }
     let t0 = Instant::now();
     let to_level = levelling(panorama, config);
+    let panorama = &panorama.without_clipped();
     let levelled = match to_level {
-        Some(l) => Some(SphereImage::panorama(
-            rotate_panorama(&panorama.rgb, &l.transpose()).map_err(|e| e.to_string())?,
-        )),
+        Some(l) => Some(
+            SphereImage::panorama(
+                rotate_panorama(&panorama.rgb, &l.transpose()).map_err(|e| e.to_string())?,
+            )
+            .without_clipped(),
+        ),
         None => None,
     };
     let small = levelled
@@ -490,6 +494,38 @@ fn distinct(sorted: Vec<Alignment>, radius: f64, keep: usize) -> Vec<Alignment> 
 fn angle_between(a: f64, b: f64) -> f64 {
     let d = (a - b).rem_euclid(std::f64::consts::TAU);
     d.min(std::f64::consts::TAU - d)
+}
+
+/// The correlation of `panorama` with the empty room rendered at `camera_to_world`, after one round
+/// of alignment at the last of [`LocalizeConfig::fine_widths`], as the final round scores a camera:
+/// compared between the found camera and the true one, it tells a search that never reached the true
+/// place from a correlation that prefers a wrong one.
+pub fn camera_correlation<F: Field>(
+    scene: &Scene<F>,
+    panorama: &SphereImage,
+    camera_to_world: &Pose,
+    config: &LocalizeConfig,
+) -> f64 {
+    let start = Alignment {
+        camera_to_world: *camera_to_world,
+        score: 0.0,
+    };
+    let last = config.fine_widths.last().copied().unwrap_or(512);
+    let six_dof = LocalizeConfig {
+        fine: AlignConfig {
+            upright: false,
+            ..config.fine.clone()
+        },
+        ..config.clone()
+    };
+    refine(
+        scene,
+        &panorama.without_clipped(),
+        &start,
+        &[last],
+        &six_dof,
+    )
+    .score
 }
 
 /// Rounds of render-and-align, one per keyframe width.

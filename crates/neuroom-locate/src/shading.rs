@@ -142,19 +142,80 @@ fn solve_spd<const N: usize>(mut a: [[f64; N]; N], b: [f64; N]) -> Option<[f64; 
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// The empty room re-shaded to the query's lighting ([`fit_shading_gain`] applied in linear light;
-/// pixels without a normal keep the median gain of the others) when that explains the query clearly
-/// better than one gain per channel; otherwise the empty room as it is. Under a light much like the
-/// captures', a gain free to vary with the normal would only learn to hide the objects standing in
-/// front of a wall.
-pub fn match_shading(query: &RgbImage, empty: &RgbImage, depth: &[f32]) -> RgbImage {
+/// The query's light relative to the empty room's as a function of the surface normal (camera
+/// frame), per colour channel: an order-2 spherical-harmonic gain, or one gain per channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NormalGain {
+    coeffs: [[f64; COEFFS]; 3],
+    /// The gain of pixels without a normal: the median gain of the others.
+    fallback: [f64; 3],
+}
+
+impl NormalGain {
+    /// One gain per channel, whatever the normal.
+    pub fn constant(gain: [f64; 3]) -> Self {
+        let y0 = f64::from(sh9(Vec3::Z)[0]);
+        Self {
+            coeffs: std::array::from_fn(|c| {
+                let mut k = [0.0; COEFFS];
+                k[0] = gain[c] / y0;
+                k
+            }),
+            fallback: gain,
+        }
+    }
+
+    /// The linear gain per channel of a surface with unit normal `n` (camera frame; `None`: unknown).
+    pub fn at(&self, n: Option<Vec3>) -> [f64; 3] {
+        match n {
+            Some(n) => {
+                let y = sh9(n);
+                std::array::from_fn(|c| gain(&self.coeffs[c], &y).max(0.0))
+            }
+            None => self.fallback,
+        }
+    }
+
+    /// Whether the gain changes with the normal (not one gain per channel).
+    pub fn depends_on_normal(&self) -> bool {
+        self.coeffs.iter().any(|c| c[1..].iter().any(|k| *k != 0.0))
+    }
+
+    /// `empty` with each pixel under the gain of its normal, in linear light.
+    pub fn apply(&self, empty: &RgbImage, normals: &[Option<Vec3>]) -> RgbImage {
+        let data = (empty.data.iter().zip(normals))
+            .map(|(e, n)| {
+                let g = self.at(*n);
+                std::array::from_fn(|c| {
+                    linear_to_srgb((srgb_to_linear(e[c]) as f64 * g[c]).clamp(0.0, 1.0) as f32)
+                })
+            })
+            .collect();
+        RgbImage {
+            width: empty.width,
+            height: empty.height,
+            data,
+        }
+    }
+}
+
+/// The gain that re-shades the empty room (`empty`, with ray distances `depth`) to the query's
+/// lighting: the normal-dependent gain of [`fit_shading_gain`] when that explains the query clearly
+/// better than one gain per channel, otherwise one gain per channel (the median ratio of linear values,
+/// as [`crate::evidence::room_gains`] finds it). Under a light much like the captures', a gain free to
+/// vary with the normal would only learn to hide the objects standing in front of a wall.
+pub fn fit_room_shading(query: &RgbImage, empty: &RgbImage, depth: &[f32]) -> NormalGain {
     let (w, h) = (empty.width as usize, empty.height as usize);
     let normals = panorama_normals(depth, w, h);
-    let shaded = reshade(query, empty, &normals);
-    let flat = global_gain(query, empty, &normals);
+    let coeffs = fit_shading_gain(query, empty, &normals);
+    let shaded = NormalGain {
+        coeffs,
+        fallback: median_gains(&coeffs, &normals),
+    };
+    let flat = NormalGain::constant(global_gains(query, empty, &normals).map(f64::from));
     let (e_shaded, e_flat) = (
-        median_error(query, &shaded, &normals),
-        median_error(query, &flat, &normals),
+        median_error(query, &shaded.apply(empty, &normals), &normals),
+        median_error(query, &flat.apply(empty, &normals), &normals),
     );
     let gained = e_flat - e_shaded;
     if (e_shaded < SHADING_GAIN_NEEDED * e_flat && gained > SHADING_GAIN_FLOOR)
@@ -162,12 +223,24 @@ pub fn match_shading(query: &RgbImage, empty: &RgbImage, depth: &[f32]) -> RgbIm
     {
         shaded
     } else {
+        flat
+    }
+}
+
+/// The empty room re-shaded to the query's lighting ([`fit_room_shading`]) when the normal-dependent
+/// gain is needed; otherwise the empty room as it is.
+pub fn match_shading(query: &RgbImage, empty: &RgbImage, depth: &[f32]) -> RgbImage {
+    let (w, h) = (empty.width as usize, empty.height as usize);
+    let gain = fit_room_shading(query, empty, depth);
+    if gain.depends_on_normal() {
+        gain.apply(empty, &panorama_normals(depth, w, h))
+    } else {
         empty.clone()
     }
 }
 
 /// How much lower the median residual under a normal-dependent gain must be than under one gain per
-/// channel for [`match_shading`] to use it. On the bedroom's test panoramas the ratio is 0.22–0.25 under
+/// channel for [`fit_room_shading`] to use it. On the bedroom's test panoramas the ratio is 0.22–0.25 under
 /// lights unlike the captures' and 0.41–0.73 under lights like them, where re-shading cost recall.
 const SHADING_GAIN_NEEDED: f32 = 0.35;
 /// … and by at least this much (mean absolute sRGB difference).
@@ -178,38 +251,10 @@ const SHADING_GAIN_FLOOR: f32 = 0.005;
 /// captures' the gain was 0.010–0.025 on the bedroom's and living room's test panoramas.
 const SHADING_GAIN_CLEAR: f32 = 0.04;
 
-/// The empty room under the normal-dependent gain.
-fn reshade(query: &RgbImage, empty: &RgbImage, normals: &[Option<Vec3>]) -> RgbImage {
-    let coeffs = fit_shading_gain(query, empty, normals);
-    let fallback = median_gains(&coeffs, normals);
-    let data = empty
-        .data
-        .iter()
-        .zip(normals)
-        .map(|(e, n)| {
-            let g: [f64; 3] = match n {
-                Some(n) => {
-                    let y = sh9(*n);
-                    std::array::from_fn(|c| gain(&coeffs[c], &y).max(0.0))
-                }
-                None => fallback,
-            };
-            std::array::from_fn(|c| {
-                linear_to_srgb((srgb_to_linear(e[c]) as f64 * g[c]).clamp(0.0, 1.0) as f32)
-            })
-        })
-        .collect();
-    RgbImage {
-        width: empty.width,
-        height: empty.height,
-        data,
-    }
-}
-
-/// The empty room under one gain per channel: the median ratio of linear values (as
+/// One gain per channel: the median ratio of linear values over the pixels with a normal (as
 /// [`crate::evidence::room_gains`] finds it).
-fn global_gain(query: &RgbImage, empty: &RgbImage, normals: &[Option<Vec3>]) -> RgbImage {
-    let g: [f32; 3] = std::array::from_fn(|c| {
+fn global_gains(query: &RgbImage, empty: &RgbImage, normals: &[Option<Vec3>]) -> [f32; 3] {
+    std::array::from_fn(|c| {
         let ratios: Vec<f32> = (0..normals.len())
             .filter(|&i| normals[i].is_some())
             .map(|i| {
@@ -218,8 +263,7 @@ fn global_gain(query: &RgbImage, empty: &RgbImage, normals: &[Option<Vec3>]) -> 
             })
             .collect();
         median(ratios).unwrap_or(1.0)
-    });
-    empty.map(|e| crate::evidence::relit(*e, g))
+    })
 }
 
 fn median(mut v: Vec<f32>) -> Option<f32> {
@@ -387,8 +431,13 @@ mod tests {
                     .map(|x| linear_to_srgb((srgb_to_linear(x) * g * texture).min(1.0)));
             }
         }
-        let e_flat = median_error(&query, &global_gain(&query, &empty, &normals), &normals);
-        let e_shaded = median_error(&query, &reshade(&query, &empty, &normals), &normals);
+        let flat = NormalGain::constant(global_gains(&query, &empty, &normals).map(f64::from));
+        let shaded = NormalGain {
+            coeffs: fit_shading_gain(&query, &empty, &normals),
+            fallback: [1.0; 3],
+        };
+        let e_flat = median_error(&query, &flat.apply(&empty, &normals), &normals);
+        let e_shaded = median_error(&query, &shaded.apply(&empty, &normals), &normals);
         assert!(
             e_shaded > SHADING_GAIN_NEEDED * e_flat && e_flat - e_shaded > SHADING_GAIN_CLEAR,
             "the case this test is for: {e_flat} → {e_shaded}"

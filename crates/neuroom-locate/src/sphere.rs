@@ -1,4 +1,4 @@
-//! The equirectangular projection of FORMAT.md at any resolution, with its Jacobian, for direct
+//! The equirectangular projection of docs/formats.md at any resolution, with its Jacobian, for direct
 //! alignment: continuous pixel coordinates of a camera-frame point and their derivatives.
 
 use glam::{DMat3, DVec2, DVec3};

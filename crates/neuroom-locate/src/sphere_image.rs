@@ -1,6 +1,6 @@
 //! What the query camera saw, on the sphere of directions. A panorama sees every direction. A photo
 //! with known intrinsics is warped onto the sphere of a level camera looking along +x (the panorama
-//! frame of FORMAT.md), and sees only its field of view; localization and the object search leave the
+//! frame of docs/formats.md), and sees only its field of view; localization and the object search leave the
 //! rest out, so one pipeline serves both.
 
 use glam::{DMat3, DVec2, DVec3};
@@ -19,6 +19,13 @@ pub const PANORAMA_FROM_PINHOLE: DMat3 = DMat3::from_cols(
     DVec3::new(0.0, 0.0, 1.0),
     DVec3::new(-1.0, 0.0, 0.0),
 );
+
+/// Least sRGB value, in every channel, of a clipped pixel ([`SphereImage::without_clipped`]).
+pub const CLIPPED: f32 = 0.97;
+
+/// How far around a clipped pixel (degrees of longitude) the panorama is taken as not seen: the
+/// glow just around a light source is the light's, not the room's surface.
+pub const CLIPPED_GROWTH: f64 = 1.5;
 
 /// Widest sphere image a photo is warped to (columns); finer photos are sampled bilinearly.
 pub const MAX_PHOTO_SPHERE_WIDTH: usize = 2048;
@@ -121,6 +128,27 @@ impl SphereImage {
                 data,
             },
             seen: Some(small_seen),
+        }
+    }
+
+    /// This image with its clipped pixels (every channel at least [`CLIPPED`]: a lamp, a window, a
+    /// burnt-out highlight) and the pixels within [`CLIPPED_GROWTH`] of them taken as not seen. Their
+    /// colour is the sensor's limit and their edges are the light's, which the room's model does not
+    /// have: a window bright in the panorama is a dark pane in the room rendered under the captures'
+    /// light, and its edges there have the opposite sign.
+    pub fn without_clipped(&self) -> SphereImage {
+        let (w, h) = (self.width(), self.height());
+        let clipped: Vec<bool> = (self.rgb.data.iter().enumerate())
+            .map(|(i, c)| self.sees(i) && c.iter().all(|x| *x >= CLIPPED))
+            .collect();
+        if !clipped.iter().any(|c| *c) {
+            return self.clone();
+        }
+        let grow = (w as f64 * CLIPPED_GROWTH / 360.0).ceil() as usize;
+        let near = (0..grow).fold(clipped, |m, _| crate::evidence::dilate(&m, w, h));
+        SphereImage {
+            rgb: self.rgb.clone(),
+            seen: Some((0..w * h).map(|i| self.sees(i) && !near[i]).collect()),
         }
     }
 
@@ -239,6 +267,32 @@ mod tests {
         assert!((r * DVec3::NEG_Z).abs_diff_eq(DVec3::X, 1e-12));
         assert!((r * DVec3::X).abs_diff_eq(DVec3::NEG_Y, 1e-12));
         assert!((r * DVec3::Y).abs_diff_eq(DVec3::Z, 1e-12));
+    }
+
+    #[test]
+    fn clipped_pixels_and_their_glow_are_not_seen() {
+        let (w, h) = (240, 120);
+        let mut rgb = ramp_photo(w, h);
+        let panorama = SphereImage::panorama(rgb.clone());
+        assert_eq!(panorama.without_clipped(), panorama, "nothing clipped");
+        // A window: a square of white, one channel just below clipping at one pixel of it.
+        for v in 50..60 {
+            for u in 100..110 {
+                rgb.data[v * w + u] = [1.0; 3];
+            }
+        }
+        rgb.data[55 * w + 105] = [1.0, 1.0, 0.9];
+        let masked = SphereImage::panorama(rgb).without_clipped();
+        let grow = (w as f64 * CLIPPED_GROWTH / 360.0).ceil() as usize;
+        assert!(!masked.sees(55 * w + 105), "inside the window");
+        assert!(!masked.sees(55 * w + 100 - grow), "its glow");
+        assert!(masked.sees(55 * w + 100 - grow - 1));
+        assert!(masked.sees(20 * w + 30));
+        // A photo keeps what it did not see unseen.
+        let camera = Pinhole::new(80, 60, 50.0, 50.0, 40.0, 30.0);
+        let photo = SphereImage::from_photo_at(&ramp_photo(80, 60), &camera, 240);
+        let kept = photo.without_clipped();
+        assert!((0..w * h).all(|i| kept.sees(i) == photo.sees(i)));
     }
 
     #[test]

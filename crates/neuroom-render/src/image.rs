@@ -1,5 +1,5 @@
 //! Whole images of a scene for either camera kind: colour, depth (pinhole: z-depth; panorama: ray
-//! distance, as FORMAT.md stores them) and instance ids, rendered in tiles of pixels in parallel. Tiles are
+//! distance, as docs/formats.md stores them) and instance ids, rendered in tiles of pixels in parallel. Tiles are
 //! small because a field's forward pass keeps its activations (a few kB per sample of a NeuS field).
 
 use crate::config::RenderConfig;

@@ -1,4 +1,4 @@
-//! A furniture model ready to place: geometry in the FORMAT.md canonical frame (z up, origin at the
+//! A furniture model ready to place: geometry in the docs/formats.md canonical frame (z up, origin at the
 //! bounding-box centre, front along +x, `size` = full extents) plus the room logic that says where it
 //! may stand. Both the procedural catalog and the OBJ loader produce these.
 

@@ -1,5 +1,5 @@
 //! The room generator: builds the shell and the furniture of a preset, samples arrangements and
-//! lightings, renders every capture and panorama, and writes the room in the FORMAT.md layout
+//! lightings, renders every capture and panorama, and writes the room in the docs/formats.md layout
 //! through the readers/writers of `neuroom-core`. Everything follows from the seed: two runs with
 //! one seed write identical bytes whatever the thread count.
 

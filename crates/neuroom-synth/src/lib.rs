@@ -1,6 +1,6 @@
 //! Ground-truth synthetic rooms for neuroom: procedural and OBJ furniture, room shells, lights, an
 //! exact ray tracer (binned-SAH BVH per mesh plus a top-level BVH over instances), an arrangement
-//! sampler that follows room logic, and writers for every file of `FORMAT.md`.
+//! sampler that follows room logic, and writers for every file of `docs/formats.md`.
 //!
 //! Entry point: [`generate`] with a [`Preset`] (see [`PRESET_NAMES`]).
 

@@ -153,7 +153,7 @@ pub struct Environment {
 }
 
 impl Environment {
-    /// Projects an environment map (FORMAT.md panorama layout in the world frame, see
+    /// Projects an environment map (docs/formats.md panorama layout in the world frame, see
     /// [`EnvMap`]) onto the first nine spherical harmonics.
     pub fn from_envmap(map: &EnvMap) -> Self {
         Self {

@@ -291,7 +291,7 @@ fn render_pixel(
             covered += 1;
         }
     }
-    // Alpha 0 means "no surface" (FORMAT.md): where the pixel centre — which decides depth and mask — hits
+    // Alpha 0 means "no surface" (docs/formats.md): where the pixel centre — which decides depth and mask — hits
     // a surface that every jittered sample missed, shade the centre so the pixel keeps a non-zero alpha.
     if covered == 0
         && depth > 0.0

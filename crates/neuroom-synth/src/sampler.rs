@@ -226,7 +226,7 @@ impl RoomSpace<'_> {
     }
 
     /// A panorama camera pose: 1.2–1.6 m high, at least `clearance` from walls and from every
-    /// floor object's box, any heading. The camera frame is FORMAT.md's (+x forward, z up).
+    /// floor object's box, any heading. The camera frame is docs/formats.md's (+x forward, z up).
     pub fn camera(&self, boxes: &[YawBox], clearance: f64, rng: &mut Pcg64) -> Option<Pose> {
         (0..2000).find_map(|_| {
             let x = rng.random_range(clearance..self.size.x - clearance);

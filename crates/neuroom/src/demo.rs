@@ -258,6 +258,7 @@ fn locate_panoramas(
                 &crate::locate::LocateInput {
                     images: std::slice::from_ref(&panorama),
                     intrinsics: None,
+                    search_views: None,
                 },
                 &out,
                 &LocateConfig::default(),

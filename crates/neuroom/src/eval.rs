@@ -54,7 +54,7 @@ pub struct EvalRow {
     pub camera_position_error_cm: f64,
     /// Angle between the solved and the true camera rotation, degrees.
     pub camera_rotation_error_deg: f64,
-    /// Identification and pose scores (FORMAT.md metrics).
+    /// Identification and pose scores (docs/formats.md metrics).
     pub objects: ArrangementScore,
     /// The re-rendered panorama against the input, when the models were given.
     pub image: Option<ImageScores>,

@@ -17,7 +17,7 @@ use crate::scene::{build_scene, light_code, load_models};
 /// What a fit wrote.
 #[derive(Clone, Debug)]
 pub struct FitOutputs {
-    /// The solved arrangement (FORMAT.md, with tone adjusters and light codes per object).
+    /// The solved arrangement (docs/formats.md, with tone adjusters and light codes per object).
     pub arrangement: PathBuf,
     /// The fit report: losses per iteration, relations, timings.
     pub report: PathBuf,

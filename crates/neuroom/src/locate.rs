@@ -12,20 +12,23 @@ use neuroom_core::camera_effects::CameraEffect;
 use neuroom_core::formats::{
     self, ArrangedObject, Arrangement, Room, RoomObject, read_rgb, read_room,
 };
-use neuroom_core::image::RgbImage;
+use neuroom_core::image::{RgbImage, linear_to_srgb};
 use neuroom_core::metrics::ArrangementScore;
 use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, Codes, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
 use neuroom_identify::{DetectConfig, Network, NetworkDetector};
 use neuroom_locate::cloud::{FreeSpace, carve, surface_cloud};
-use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View};
+use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View, colour_error};
+use neuroom_locate::local_light::{LocalLightConfig, RoomLight};
+use neuroom_locate::localize::camera_correlation;
 use neuroom_locate::merge::merge_views;
 use neuroom_locate::objects::{
-    Found, ObjectModel, Placement, SearchConfig, SearchInput, arrangement_error, find_objects,
+    Found, ObjectModel, ObjectStanding, Placement, SearchConfig, SearchInput, arrangement_error,
+    find_objects, object_standings,
 };
 use neuroom_locate::plane::blur_rgb;
-use neuroom_locate::shading::match_shading;
+use neuroom_locate::shading::{match_shading, panorama_normals};
 use neuroom_locate::{
     CameraEstimate, DATABASE_FILE, Database, DatabaseConfig, LocalizeConfig, PANORAMA_FROM_PINHOLE,
     SphereImage, build_database, localize, render_background,
@@ -116,6 +119,10 @@ pub struct LocateConfig {
     /// Re-shade that rendering to the panorama's lighting by a gain depending on the surface normal
     /// ([`match_shading`]) before objects are searched; otherwise only a global per-channel gain.
     pub match_shading: bool,
+    /// Relight that rendering, and the objects, by the light as it varies over the panorama (a lamp
+    /// lighting one corner, a spot, a window: [`fit_light_field`]); `None`: one light everywhere.
+    #[serde(default = "default_local_light")]
+    pub local_light: Option<LocalLightConfig>,
     /// Which detector finds the object regions.
     pub detection: DetectorChoice,
     /// Object detection from the difference with the empty room.
@@ -132,6 +139,10 @@ pub struct LocateConfig {
     pub object_light: Option<String>,
 }
 
+fn default_local_light() -> Option<LocalLightConfig> {
+    Some(LocalLightConfig::default())
+}
+
 impl Default for LocateConfig {
     fn default() -> Self {
         Self {
@@ -141,6 +152,7 @@ impl Default for LocateConfig {
             render: LocalizeConfig::default().render,
             empty_blur: 0.7,
             match_shading: true,
+            local_light: default_local_light(),
             detection: DetectorChoice::default(),
             detector: ResidualDetector::default(),
             network: DetectConfig::default(),
@@ -215,7 +227,7 @@ pub fn object_models(
             let placement = placement(&first.relations, &model_of);
             let against_wall = placement == Placement::Wall
                 || (placement == Placement::Floor && first.relations.iter().any(|r| r == "wall"));
-            // The model's bounds carry a margin; the object's box is room.json's `size` (FORMAT.md).
+            // The model's bounds carry a margin; the object's box is room.json's `size` (docs/formats.md).
             let bounds = Vec3::from(entry.bounds.centred_half_extents());
             let half = (0.5 * first.size).as_vec3();
             let spacing = (2.0 * bounds.max_element() / 25.0).clamp(0.02, 0.06);
@@ -365,7 +377,7 @@ impl Located {
 /// The image `locate` understands.
 #[derive(Clone, Debug)]
 pub enum QueryImage {
-    /// An equirectangular panorama (FORMAT.md).
+    /// An equirectangular panorama (docs/formats.md).
     Panorama(RgbImage),
     /// A photo with its intrinsics, taken by a camera held level (no pitch or roll).
     Photo {
@@ -409,7 +421,7 @@ impl QueryImage {
 }
 
 /// Locates `query` in the room of `ctx`: camera, detections, objects and initial poses; returns the
-/// arrangement (FORMAT.md, with the camera, its `camera_confidence` and any `warnings`; `image_name`
+/// arrangement (docs/formats.md, with the camera, its `camera_confidence` and any `warnings`; `image_name`
 /// names the image file; a photo's intrinsics are recorded as `camera`), the details (whose camera is
 /// the panorama frame) and the query's view at the found camera ([`object_view`]), in which
 /// arrangements are judged.
@@ -566,8 +578,10 @@ fn arrangement_of(
     arrangement
 }
 
-/// The query at the object search's resolution beside the empty room rendered at `pose` and re-shaded
-/// to the query's light from what the query saw; where it saw nothing, the query shows that empty room.
+/// The query at the object search's resolution beside the empty room rendered at `pose`, re-shaded
+/// to the query's light and relit by the light as it varies over the panorama
+/// ([`LocateConfig::local_light`]) from what the query saw; where it saw nothing, the query shows that
+/// empty room.
 fn object_view(
     ctx: &LocateContext,
     sphere: &SphereImage,
@@ -578,9 +592,25 @@ fn object_view(
     let (empty, empty_depth) = render_background(&ctx.scene, pose, w, &config.render);
     let small = sphere.downsample(w, w / 2);
     let mut empty = blur_rgb(&empty, config.empty_blur);
-    if config.match_shading {
-        empty = match_shading(&small.rgb, &empty, &small.seen_depth(&empty_depth));
-    }
+    let light = match &config.local_light {
+        Some(local) => {
+            let light = RoomLight::fit(
+                &small.rgb,
+                &empty,
+                &empty_depth,
+                small.seen.as_deref(),
+                config.match_shading,
+                local,
+            );
+            empty = light.relight_room(&empty, &panorama_normals(&empty_depth, w, w / 2));
+            Some(light)
+        }
+        None if config.match_shading => {
+            empty = match_shading(&small.rgb, &empty, &small.seen_depth(&empty_depth));
+            None
+        }
+        None => None,
+    };
     let SphereImage {
         rgb: mut query,
         seen,
@@ -597,6 +627,7 @@ fn object_view(
         empty,
         empty_depth,
         seen,
+        light,
     }
 }
 
@@ -637,6 +668,8 @@ pub struct LocateInput<'a> {
     pub images: &'a [PathBuf],
     /// The photos' intrinsics file ([`formats::read_intrinsics_file`]); `None` for panoramas.
     pub intrinsics: Option<&'a Path>,
+    /// A folder that receives what the object search saw of each image ([`write_search_view`]).
+    pub search_views: Option<&'a Path>,
 }
 
 /// `neuroom locate`: finds the camera and the objects of `images` (panoramas, or with `intrinsics`
@@ -653,7 +686,11 @@ pub fn locate(
     fit: Option<&FitConfig>,
     progress: &mut dyn FnMut(&IterationLog),
 ) -> anyhow::Result<LocateOutputs> {
-    let LocateInput { images, intrinsics } = *input;
+    let LocateInput {
+        images,
+        intrinsics,
+        search_views,
+    } = *input;
     let views = images
         .iter()
         .map(|image| {
@@ -666,6 +703,12 @@ pub fn locate(
         .collect::<anyhow::Result<Vec<_>>>()?;
     let ctx = LocateContext::load(room, models, config)?;
     let (mut arrangement, located, object_views) = locate_views(&ctx, &views, config)?;
+    if let Some(dir) = search_views {
+        for ((_, name), view) in views.iter().zip(&object_views) {
+            let detections = detect_objects(&ctx, view, config);
+            write_search_view(dir, name, view, &detections)?;
+        }
+    }
     arrangement
         .extra
         .insert("locate".into(), serde_json::to_value(&located)?);
@@ -708,6 +751,55 @@ pub fn locate(
     })
 }
 
+/// Writes what the object search saw of the image `name` into `dir` (created when missing), as PNGs
+/// at the search's resolution: `<stem>.query.png` (the image), `<stem>.room.png` (the empty room as the
+/// image's light shows it, which the objects must explain the image better than),
+/// `<stem>.light.png` (that light relative to the captures', linear gain / 2, when it varies over the
+/// image) and `<stem>.evidence.png` (their difference ×4, the detected regions in red).
+pub fn write_search_view(
+    dir: &Path,
+    name: &str,
+    view: &View,
+    detections: &[Detection],
+) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    let stem = Path::new(name)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "view".into());
+    let path = |kind: &str| dir.join(format!("{stem}.{kind}.png"));
+    formats::write_rgb(path("query"), &view.query)?;
+    formats::write_rgb(path("room"), &view.empty)?;
+    if let Some(light) = &view.light {
+        let gains = RgbImage {
+            width: view.query.width,
+            height: view.query.height,
+            data: light
+                .field
+                .gains
+                .iter()
+                .map(|g| g.map(|x| linear_to_srgb((0.5 * x).min(1.0))))
+                .collect(),
+        };
+        formats::write_rgb(path("light"), &gains)?;
+    }
+    let mut evidence = RgbImage {
+        width: view.query.width,
+        height: view.query.height,
+        data: (view.query.data.iter().zip(&view.empty.data))
+            .map(|(q, e)| [(4.0 * colour_error(*q, *e)).min(1.0); 3])
+            .collect(),
+    };
+    for d in detections {
+        for &p in &d.pixels {
+            let c = &mut evidence.data[p as usize];
+            *c = [0.5 + 0.5 * c[0], 0.5 * c[1], 0.5 * c[2]];
+        }
+    }
+    formats::write_rgb(path("evidence"), &evidence)?;
+    Ok(())
+}
+
 /// Reads the image `locate` is given: a panorama (twice as wide as high), or with `intrinsics` (a
 /// JSON file of `transforms.json`'s camera keys, [`formats::read_intrinsics_file`]) a photo of that
 /// size.
@@ -747,7 +839,7 @@ pub struct PanoramaScore {
     pub camera_position_error_cm: f64,
     /// Geodesic angle between the found and true camera rotations (degrees).
     pub camera_rotation_error_deg: f64,
-    /// Identification and pose scores (FORMAT.md metrics) of the final arrangement: after the fit when
+    /// Identification and pose scores (docs/formats.md metrics) of the final arrangement: after the fit when
     /// it ran, else the initial poses.
     pub objects: ArrangementScore,
     /// The initial poses' scores, when the fit ran after them.
@@ -759,19 +851,38 @@ pub struct PanoramaScore {
     /// measured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub objective: Option<SearchObjective>,
+    /// The camera's correlation with the empty room at the found and at the true camera
+    /// ([`camera_correlation`]), when measured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_objective: Option<CameraObjective>,
     /// Details.
     pub located: Located,
+}
+
+/// The localization's objective ([`camera_correlation`], higher is better) at the camera it found and
+/// at the true one. When the truth scores higher, the search never reached it; when lower, the
+/// correlation prefers the wrong place.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+pub struct CameraObjective {
+    /// At the camera found.
+    pub found: f64,
+    /// At the true camera.
+    pub truth: f64,
 }
 
 /// The object search's objective ([`neuroom_locate::objects::arrangement_error`], lower is better) at
 /// the arrangement it found and at the true one, both seen from the found camera. When the truth scores
 /// lower, the search missed it; when higher, its colour model prefers the wrong arrangement.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SearchObjective {
     /// At the initial poses found.
     pub found: f64,
     /// At the true poses.
     pub truth: f64,
+    /// How each true object stands among the other true objects, as the search judges it
+    /// ([`object_standings`]), by id.
+    #[serde(default)]
+    pub truth_standings: Vec<(u16, ObjectStanding)>,
 }
 
 /// [`SearchObjective`] of `located` against the arrangement `truth`, with `view` its query at the
@@ -784,9 +895,12 @@ fn search_objective(
     config: &LocateConfig,
 ) -> SearchObjective {
     let input = judging_input(ctx, view, located.search_pose());
+    let placed_truth = placed_objects(ctx, truth);
+    let standings = object_standings(&input, &placed_truth, &config.search);
     SearchObjective {
         found: arrangement_error(&input, &located.found, &config.search),
-        truth: arrangement_error(&input, &placed_objects(ctx, truth), &config.search),
+        truth: arrangement_error(&input, &placed_truth, &config.search),
+        truth_standings: placed_truth.iter().map(|f| f.id).zip(standings).collect(),
     }
 }
 
@@ -1024,6 +1138,13 @@ pub fn bench_locate(
         };
         let seconds = start.elapsed().as_secs_f64();
         let objective = search_objective(&ctx, &view, &located, &truth, config);
+        let sphere = QueryImage::Panorama(image.clone()).sphere();
+        let correlation =
+            |pose: &Pose| camera_correlation(&ctx.scene, &sphere, pose, &config.localize);
+        let camera_objective = CameraObjective {
+            found: correlation(&located.camera.pose()),
+            truth: correlation(&truth.camera_to_world),
+        };
         let score = PanoramaScore {
             panorama: name,
             camera_position_error_cm: 100.0
@@ -1039,6 +1160,7 @@ pub fn bench_locate(
             initial: initial_score,
             seconds,
             objective: Some(objective),
+            camera_objective: Some(camera_objective),
             located,
         };
         each(&score);

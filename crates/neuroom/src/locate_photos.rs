@@ -144,6 +144,7 @@ pub fn bench_locate_photos(
                 initial: None,
                 seconds,
                 objective: None,
+                camera_objective: None,
                 located,
             };
             each(&score);

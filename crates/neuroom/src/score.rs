@@ -1,4 +1,4 @@
-//! FORMAT.md's object metrics of a solved arrangement against its ground truth, shared by `locate`'s
+//! docs/formats.md's object metrics of a solved arrangement against its ground truth, shared by `locate`'s
 //! benchmark, `eval` and `export`'s report; and the shape symmetries of a room's objects, read from its
 //! ground-truth meshes, for the rotation error up to symmetry beside ARE.
 

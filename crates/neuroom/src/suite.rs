@@ -185,6 +185,61 @@ pub fn cached_models_dir(
     Ok(cache.join(format!("{}-{key}", parsed.name)))
 }
 
+/// One suite room's models, trained in this run or found in the cache.
+pub struct SuiteModels {
+    /// The room's name (room.json).
+    pub room: String,
+    /// The model folder (holds the manifest).
+    pub models: PathBuf,
+    /// Seconds spent training them in this run (0 when they were cached).
+    pub train_seconds: f64,
+}
+
+/// Trains the models of the room in `dir` with the suite's budgets into the cache of `spec`, or finds
+/// them there; an interrupted training resumes from its checkpoints. `announce` sees the room's name
+/// and model folder before the training starts.
+pub fn suite_models(
+    spec: &SuiteSpec,
+    dir: &Path,
+    progress: &dyn TrainProgress,
+    announce: &mut dyn FnMut(&str, &Path),
+) -> anyhow::Result<SuiteModels> {
+    let name = crate::read_room(dir)?.name;
+    let parent = cached_models_dir(&spec.cache, dir, &spec.training)?;
+    let models = parent.join(&name);
+    announce(&name, &models);
+    let start = Instant::now();
+    let trained = train_room(dir, &parent, &spec.training.options(), progress)?;
+    anyhow::ensure!(
+        trained.manifest.complete,
+        "{}: training stopped before every model was done",
+        models.display()
+    );
+    let train_seconds = if trained.trained.is_empty() {
+        0.0
+    } else {
+        start.elapsed().as_secs_f64()
+    };
+    Ok(SuiteModels {
+        room: name,
+        models,
+        train_seconds,
+    })
+}
+
+/// Trains (or finds in the cache) the models of every room of `spec` without locating anything: a
+/// cache made ready before the suite is run. `announce` sees each room as in [`suite_models`].
+pub fn train_suite(
+    spec: &SuiteSpec,
+    progress: &dyn TrainProgress,
+    announce: &mut dyn FnMut(&str, &Path),
+) -> anyhow::Result<Vec<SuiteModels>> {
+    suite_rooms(&spec.dirs)?
+        .iter()
+        .map(|dir| suite_models(spec, dir, progress, announce))
+        .collect()
+}
+
 /// Trains (or finds in the cache) and locates every room of `spec`; `progress` shows the training,
 /// `each` sees the suite as it goes.
 pub fn bench_suite(
@@ -195,38 +250,22 @@ pub fn bench_suite(
     let rooms = suite_rooms(&spec.dirs)?;
     let mut results = Vec::new();
     for dir in &rooms {
-        let name = crate::read_room(dir)?.name;
-        let parent = cached_models_dir(&spec.cache, dir, &spec.training)?;
-        let models = parent.join(&name);
-        each(SuiteEvent::Training {
-            room: &name,
-            models: &models,
-        });
-        let start = Instant::now();
-        let trained = train_room(dir, &parent, &spec.training.options(), progress)?;
-        anyhow::ensure!(
-            trained.manifest.complete,
-            "{}: training stopped before every model was done",
-            models.display()
-        );
-        let train_seconds = start.elapsed().as_secs_f64();
+        let trained = suite_models(spec, dir, progress, &mut |room, models| {
+            each(SuiteEvent::Training { room, models })
+        })?;
         let fit = spec.fit.as_ref();
         let effect = spec.effect.as_ref();
-        let (_, mean) = bench_locate(dir, &models, &spec.locate, fit, effect, &mut |s| {
+        let (_, mean) = bench_locate(dir, &trained.models, &spec.locate, fit, effect, &mut |s| {
             each(SuiteEvent::Panorama {
-                room: &name,
+                room: &trained.room,
                 score: s,
             })
         })?;
         let room = SuiteRoom {
-            room: name,
+            room: trained.room,
             dir: dir.clone(),
             mean,
-            train_seconds: if trained.trained.is_empty() {
-                0.0
-            } else {
-                train_seconds
-            },
+            train_seconds: trained.train_seconds,
         };
         each(SuiteEvent::Room(&room));
         results.push(room);

@@ -4,7 +4,7 @@
 //!
 //! A path file is a JSON list whose entries are either `{"eye": [x, y, z], "look_at": [x, y, z]}` or
 //! `{"camera_to_world": [[4 rows of 4]]}` (the pinhole OpenGL frame for pinhole frames, the panorama
-//! frame of FORMAT.md for panorama frames).
+//! frame of docs/formats.md for panorama frames).
 
 use std::path::{Path, PathBuf};
 

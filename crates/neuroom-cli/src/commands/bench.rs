@@ -67,6 +67,10 @@ struct LocateArgs {
     /// surface normal (the ablation of that step).
     #[arg(long)]
     no_shading: bool,
+    /// Compare objects with the empty room under one light everywhere, not relit by the light as it
+    /// varies over the panorama (the ablation of that step).
+    #[arg(long)]
+    no_local_light: bool,
     /// Detector of the object regions: `residual` (difference with the empty room), `network` (the
     /// identification network `neuroom train` stores beside the models), `named` (the residual's
     /// regions named by the network) or `auto` (the network when present).
@@ -75,7 +79,7 @@ struct LocateArgs {
     /// Light code (its name in the model manifest, e.g. `studio`) under which the object search sees
     /// the objects' colours; by default their first capture lighting. For objects captured under a light
     /// unlike the room's: on blender-lite (objects lit by a studio environment, the room by ceiling
-    /// panels) `studio` placed them better, on the synthetic presets a little worse (see the README).
+    /// panels) `studio` placed them better, on the synthetic presets a little worse (see docs/benchmarks.md).
     #[arg(long)]
     object_light: Option<String>,
     /// Also run the holistic fit from the initial poses (as `neuroom locate` does) and score its poses
@@ -309,6 +313,7 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
     let defaults = neuroom::locate::LocateConfig::default();
     let config = neuroom::locate::LocateConfig {
         match_shading: !a.no_shading,
+        local_light: defaults.local_light.clone().filter(|_| !a.no_local_light),
         detection: a.detector.unwrap_or(defaults.detection),
         object_light: a.object_light.clone(),
         ..defaults
@@ -364,6 +369,17 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
             for line in neuroom::score::object_lines(room, &s.objects) {
                 println!("  {line}");
             }
+            if let Some(c) = &s.camera_objective {
+                let verdict = if c.truth > c.found + 0.005 {
+                    "the true camera correlates better: the search missed it"
+                } else {
+                    "the found camera correlates at least as well as the true one"
+                };
+                println!(
+                    "  camera correlation: found {:.3}, truth {:.3}; {verdict}",
+                    c.found, c.truth
+                );
+            }
             if let Some(o) = &s.objective {
                 let verdict = if o.truth < o.found {
                     "the truth explains the panorama better: the search missed it"
@@ -374,6 +390,18 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
                     "  search objective (colour error): found {:.1}, truth {:.1}; {verdict}",
                     o.found, o.truth
                 );
+                for (id, t) in &o.truth_standings {
+                    let name = room.objects.iter().find(|r| r.id == *id);
+                    println!(
+                        "  {} (id {id}) at its true pose: score {:.1} over {} pixels ({:.0} % of \
+                         those it shows), {}",
+                        name.map_or("?", |r| r.name.as_str()),
+                        t.score,
+                        t.explained,
+                        100.0 * t.precision,
+                        if t.accepted { "accepted" } else { "refused" }
+                    );
+                }
             }
         }
         if a.json {

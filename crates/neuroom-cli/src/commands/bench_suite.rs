@@ -32,6 +32,10 @@ pub struct SuiteArgs {
     /// Initial poses only: leave out the holistic fit that `neuroom locate`, and so the suite, runs.
     #[arg(long, requires = "suite")]
     pub no_fit: bool,
+    /// Only train the suite's rooms into `--cache` (or find them there) and stop: makes the cache
+    /// ready, e.g. at low priority in the background, before the suite is run.
+    #[arg(long, requires = "suite")]
+    pub train_only: bool,
 }
 
 /// Runs the suite with the locate pipeline `locate`; `json` adds one JSON object per panorama, per
@@ -59,6 +63,16 @@ pub fn run_suite(
         }),
         effect,
     };
+    if args.train_only {
+        let trained =
+            neuroom::suite::train_suite(&spec, &TrainBar::default(), &mut |room, models| {
+                println!("== {room} (models in {})", models.display())
+            })?;
+        for room in &trained {
+            println!("{}: models ready in {}", room.room, room.models.display());
+        }
+        return Ok(());
+    }
     let mut failed = None;
     let report =
         neuroom::suite::bench_suite(&spec, &TrainBar::default(), &mut |event| match event {

@@ -19,7 +19,7 @@ pub struct Args {
     models: PathBuf,
     /// The equirectangular panorama (width = 2 × height).
     panorama: PathBuf,
-    /// Initial arrangement: the panorama camera and initial object poses (FORMAT.md arrangement).
+    /// Initial arrangement: the panorama camera and initial object poses (docs/formats.md arrangement).
     #[arg(long)]
     init: PathBuf,
     /// The room folder, whose room.json relation hints seed the relations.

@@ -10,7 +10,7 @@ use crate::progress::StageBars;
 
 /// Find the camera of a panorama in a trained room, find and identify the objects it shows with their
 /// initial poses, then solve poses, tone and light codes by the holistic fit. Writes the arrangement
-/// (FORMAT.md, with the camera), the initial one beside it (`<OUT stem>.init.json`) and the fit's report
+/// (docs/formats.md, with the camera), the initial one beside it (`<OUT stem>.init.json`) and the fit's report
 /// and renders. The first run on a model folder builds its localization database (`locate.safetensors`).
 /// A photo taken by a level camera works too, given its intrinsics: it is located and its objects
 /// found within its field of view. Several images are several views of one arrangement: each is
@@ -48,12 +48,16 @@ pub struct Args {
     /// Light code (its name in the model manifest, e.g. `studio`) under which the object search sees
     /// the objects' colours; by default their first capture lighting. For objects captured under a light
     /// unlike the room's: on blender-lite (objects lit by a studio environment, the room by ceiling
-    /// panels) `studio` placed them better, on the synthetic presets a little worse (see the README).
+    /// panels) `studio` placed them better, on the synthetic presets a little worse (see docs/benchmarks.md).
     #[arg(long)]
     object_light: Option<String>,
     /// Stop after the initial poses (no holistic fit).
     #[arg(long)]
     no_fit: bool,
+    /// Write what the object search saw of each image into this folder: the image, the empty room
+    /// under the image's light, that light, and their difference with the detected regions.
+    #[arg(long)]
+    search_views: Option<PathBuf>,
     /// Pose iterations of the fit (stage 1).
     #[arg(long)]
     pose_iterations: Option<usize>,
@@ -83,6 +87,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &neuroom::locate::LocateInput {
             images: &args.images,
             intrinsics: args.intrinsics.as_deref(),
+            search_views: args.search_views.as_deref(),
         },
         &args.out,
         &config,

@@ -25,7 +25,7 @@ use crate::progress::StageBars;
 pub struct Args {
     /// A room's model folder (as written by `neuroom train`: holds manifest.json).
     models: PathBuf,
-    /// Arrangement JSON (FORMAT.md): where each object stands and the panorama camera.
+    /// Arrangement JSON (docs/formats.md): where each object stands and the panorama camera.
     arrangement: PathBuf,
     /// Output colour PNG.
     #[arg(short, long)]

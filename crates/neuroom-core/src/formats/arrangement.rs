@@ -1,4 +1,4 @@
-//! Arrangement files: where the panorama camera and every object stand, and the lighting (FORMAT.md,
+//! Arrangement files: where the panorama camera and every object stand, and the lighting (docs/formats.md,
 //! "Arrangement"). The same schema holds ground truth and the output of understanding a panorama.
 
 use super::json::{
@@ -18,7 +18,7 @@ pub const ARRANGEMENT_FORMAT: &str = "neuroom.arrangement/1";
 pub struct Arrangement {
     /// The panorama image file name, relative to the arrangement file's folder.
     pub image: String,
-    /// Panorama camera pose in FORMAT.md's panorama frame (+x centre column, +y left, +z up).
+    /// Panorama camera pose in docs/formats.md's panorama frame (+x centre column, +y left, +z up).
     pub camera_to_world: Pose,
     /// The objects placed in the room.
     pub objects: Vec<ArrangedObject>,

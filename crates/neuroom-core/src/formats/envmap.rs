@@ -1,7 +1,7 @@
 //! Environment maps: equirectangular HDR images of the light arriving from every world direction.
 //!
 //! # Convention
-//! An environment map is laid out exactly like a FORMAT.md panorama, read in the **world** frame (z up):
+//! An environment map is laid out exactly like a docs/formats.md panorama, read in the **world** frame (z up):
 //! pixel (u, v) holds the light arriving from direction
 //! ```text
 //! lon = π · (1 − 2 (u + 0.5) / W)        lat = π · (1/2 − (v + 0.5) / H)

@@ -1,4 +1,4 @@
-//! The on-disk formats of `FORMAT.md`: rooms, captures, arrangements, images and environment maps.
+//! The on-disk formats of `docs/formats.md`: rooms, captures, arrangements, images and environment maps.
 //!
 //! Every reader validates what it reads and fails with a [`FormatError`] naming the
 //! file and the field at fault; readers ignore fields they do not know. Every writer goes through

@@ -1,4 +1,4 @@
-//! `room.json`: the closed scene, its background capture and its movable objects (FORMAT.md, "A room").
+//! `room.json`: the closed scene, its background capture and its movable objects (docs/formats.md, "A room").
 
 use super::json::{
     JsonObject, as_integer_in, as_nonempty_str, as_pose, as_positive_vec3, as_strings, parse_json,
@@ -60,7 +60,7 @@ impl Room {
         self.root.join(capture)
     }
 
-    /// Where FORMAT.md puts the optional ground-truth mesh of `object`: `meshes/<name>.ply`.
+    /// Where docs/formats.md puts the optional ground-truth mesh of `object`: `meshes/<name>.ply`.
     pub fn truth_mesh_path(&self, object: &RoomObject) -> PathBuf {
         self.root
             .join("meshes")

@@ -1,4 +1,4 @@
-//! `transforms.json`: a pinhole RGB-D capture, nerfstudio-compatible (FORMAT.md, "Pinhole captures").
+//! `transforms.json`: a pinhole RGB-D capture, nerfstudio-compatible (docs/formats.md, "Pinhole captures").
 //!
 //! Intrinsics may be given at the top level, in each frame, or both; a frame's own value wins. Only the
 //! `OPENCV` (k1, k2, p1, p2) and `PINHOLE` camera models exist here; `camera_model` may also be absent.

@@ -1,4 +1,4 @@
-//! Small analytic rooms written in the FORMAT.md layout for tests: captures ray-traced (sphere tracing)
+//! Small analytic rooms written in the docs/formats.md layout for tests: captures ray-traced (sphere tracing)
 //! from analytic fields, with colour, z-depth and instance masks.
 
 #![allow(dead_code)] // each test binary uses a different part of these helpers

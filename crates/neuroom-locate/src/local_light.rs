@@ -1,0 +1,358 @@
+//! The light of the panorama as it varies over the room. A lamp lights one corner, a spot one patch of
+//! wall, a window one side of the room: the query differs from the empty room (rendered under its
+//! captures' light, re-shaded by [`crate::shading`] for what depends on the surface normal alone) by a
+//! factor per colour channel that changes smoothly over each surface. That factor, the ratio of the
+//! query's linear colour to the empty room's, is estimated per pixel by a normalised Gaussian
+//! convolution of the log ratios over the room's pixels, robustly (objects standing in front of the
+//! room, light sources and shadows are outliers, re-weighted away over a few rounds), and where few
+//! pixels support it falls back to a broader estimate. It relights the empty room, so that the room
+//! explains the query everywhere but where objects stand, and the objects, which take the light of the
+//! place they stand in ([`LightField::gain`]).
+
+use glam::Vec3;
+use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
+use serde::{Deserialize, Serialize};
+
+use crate::plane::Plane;
+use crate::shading::{NormalGain, fit_room_shading, panorama_normals};
+
+/// The query's light relative to the captures' at every pixel: a gain per colour channel that depends
+/// on the surface's normal ([`crate::shading`]: the light's colour, level and direction, as the whole
+/// room shows it), times a smooth field over the panorama ([`LightField`]: what lights one place more
+/// than another). The empty room is relit by it; an object takes, at each of its pixels, the field
+/// there and the normal gain of its own surface.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RoomLight {
+    /// The gain by the surface normal (camera frame).
+    pub shading: NormalGain,
+    /// The smooth field on top of it.
+    pub field: LightField,
+}
+
+impl RoomLight {
+    /// The light of `query` relative to the empty room `empty` seen from the same camera (ray distances
+    /// `depth`), over the pixels the camera saw (`seen`, all when `None`). With `by_normal` false the
+    /// normal gain is one gain per channel.
+    pub fn fit(
+        query: &RgbImage,
+        empty: &RgbImage,
+        depth: &[f32],
+        seen: Option<&[bool]>,
+        by_normal: bool,
+        config: &LocalLightConfig,
+    ) -> Self {
+        let (w, h) = (empty.width as usize, empty.height as usize);
+        let normals = panorama_normals(depth, w, h);
+        let seen_depth: Vec<f32> = (0..w * h)
+            .map(|p| {
+                if seen.is_none_or(|s| s[p]) {
+                    depth[p]
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let shading = if by_normal {
+            fit_room_shading(query, empty, &seen_depth)
+        } else {
+            NormalGain::constant(
+                crate::evidence::room_gains_of(query, empty, &seen_depth).map(f64::from),
+            )
+        };
+        let shaded = shading.apply(empty, &normals);
+        let field = fit_light_field(query, &shaded, depth, seen, config);
+        Self { shading, field }
+    }
+
+    /// The empty room `empty` (with surface normals `normals`, camera frame) under this light.
+    pub fn relight_room(&self, empty: &RgbImage, normals: &[Option<Vec3>]) -> RgbImage {
+        self.field.apply(&self.shading.apply(empty, normals))
+    }
+
+    /// The sRGB colour `c` of an object's surface with unit normal `normal` (camera frame) seen at
+    /// pixel `p`, under this light (in linear light, clipped at white).
+    pub fn relight_object(&self, p: usize, c: [f32; 3], normal: Vec3) -> [f32; 3] {
+        let (s, f) = (self.shading.at(Some(normal)), self.field.gain(p));
+        std::array::from_fn(|k| {
+            let g = s[k] as f32 * f[k];
+            linear_to_srgb((srgb_to_linear(c[k]) * g).min(1.0))
+        })
+    }
+}
+
+/// Settings of the light field's estimation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LocalLightConfig {
+    /// Standard deviation of the Gaussian over which the light is taken as one (degrees of longitude):
+    /// a lamp's pool of light or a spot spans tens of degrees, an object seen across the room a few;
+    /// the robust weights keep an object's own pixels out of the light around it.
+    pub sigma_deg: f32,
+    /// Reweighting rounds of the robust estimate.
+    pub rounds: usize,
+    /// Linear-light level below which a pixel's ratio counts less (its weight is its level over its
+    /// level plus this): noise in the darkest pixels says little of the light.
+    pub dark_level: f32,
+}
+
+impl Default for LocalLightConfig {
+    fn default() -> Self {
+        Self {
+            sigma_deg: 6.0,
+            rounds: 3,
+            dark_level: 0.01,
+        }
+    }
+}
+
+/// How much broader the fallback Gaussian is than [`LocalLightConfig::sigma_deg`], and the weight of
+/// its support against the narrow one's: where a pixel's neighbourhood holds little of the room (a
+/// large object in front of it), the light of a wider neighbourhood is taken.
+const FALLBACK_SCALE: f32 = 4.0;
+const FALLBACK_WEIGHT: f32 = 0.05;
+
+/// Pixels whose every channel is at least this bright (sRGB) are clipped: light sources and burnt-out
+/// highlights, whose ratio is not the light's.
+const CLIPPED: f32 = 0.97;
+
+/// The query's light relative to the empty room's, per pixel and channel (linear gains).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightField {
+    /// Columns.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+    /// Per pixel, the linear gain per channel.
+    pub gains: Vec<[f32; 3]>,
+}
+
+impl LightField {
+    /// A field that changes nothing.
+    pub fn uniform(width: usize, height: usize) -> Self {
+        Self {
+            width,
+            height,
+            gains: vec![[1.0; 3]; width * height],
+        }
+    }
+
+    /// The gain at pixel `p`.
+    pub fn gain(&self, p: usize) -> [f32; 3] {
+        self.gains[p]
+    }
+
+    /// The sRGB colour `c` under the gain of pixel `p` (in linear light, clipped at white).
+    pub fn relight(&self, p: usize, c: [f32; 3]) -> [f32; 3] {
+        let g = self.gains[p];
+        std::array::from_fn(|k| linear_to_srgb((srgb_to_linear(c[k]) * g[k]).min(1.0)))
+    }
+
+    /// `image` with every pixel under its gain.
+    pub fn apply(&self, image: &RgbImage) -> RgbImage {
+        RgbImage {
+            width: image.width,
+            height: image.height,
+            data: (image.data.iter().enumerate())
+                .map(|(p, c)| self.relight(p, *c))
+                .collect(),
+        }
+    }
+}
+
+/// The light field mapping `empty` onto `query` (both `width × height` panoramas, sRGB) over the pixels
+/// with a room surface (`depth > 0`) that the camera saw (`seen`, all when `None`).
+pub fn fit_light_field(
+    query: &RgbImage,
+    empty: &RgbImage,
+    depth: &[f32],
+    seen: Option<&[bool]>,
+    config: &LocalLightConfig,
+) -> LightField {
+    let (w, h) = (query.width as usize, query.height as usize);
+    let valid: Vec<bool> = (0..w * h)
+        .map(|p| {
+            depth[p] > 0.0
+                && seen.is_none_or(|s| s[p])
+                && !query.data[p].iter().all(|c| *c >= CLIPPED)
+                && !empty.data[p].iter().all(|c| *c >= CLIPPED)
+        })
+        .collect();
+    let linear = |c: [f32; 3]| c.map(|x| srgb_to_linear(x).max(TINY));
+    let log_ratio: Vec<[f32; 3]> = (0..w * h)
+        .map(|p| {
+            let (q, e) = (linear(query.data[p]), linear(empty.data[p]));
+            std::array::from_fn(|k| (q[k] / e[k]).ln())
+        })
+        .collect();
+    // How much each pixel's ratio says: none outside the room, less in the dark.
+    let trust: Vec<f32> = (0..w * h)
+        .map(|p| {
+            if !valid[p] {
+                return 0.0;
+            }
+            let level = linear(empty.data[p]).iter().sum::<f32>() / 3.0;
+            level / (level + config.dark_level)
+        })
+        .collect();
+    let sigma = config.sigma_deg * w as f32 / 360.0;
+    let mut weight = trust.clone();
+    let mut field = smooth(&log_ratio, &weight, w, h, sigma);
+    for _ in 0..config.rounds {
+        let deviation: Vec<f32> = (0..w * h)
+            .map(|p| {
+                (0..3)
+                    .map(|k| (log_ratio[p][k] - field[p][k]).abs())
+                    .sum::<f32>()
+                    / 3.0
+            })
+            .collect();
+        let Some(scale) = robust_scale(&deviation, &valid) else {
+            break;
+        };
+        weight = (0..w * h)
+            .map(|p| trust[p] / (1.0 + (deviation[p] / scale).powi(2)))
+            .collect();
+        field = smooth(&log_ratio, &weight, w, h, sigma);
+    }
+    LightField {
+        width: w,
+        height: h,
+        gains: field.iter().map(|l| l.map(f32::exp)).collect(),
+    }
+}
+
+/// Per channel, the weighted mean of `values` under a Gaussian of `sigma` pixels around every pixel
+/// (normalised convolution), falling back to a [`FALLBACK_SCALE`] times broader one where the narrow
+/// one holds little weight; 0 where neither holds any.
+fn smooth(values: &[[f32; 3]], weight: &[f32], w: usize, h: usize, sigma: f32) -> Vec<[f32; 3]> {
+    let plane = |data: Vec<f32>| Plane {
+        width: w,
+        height: h,
+        data,
+    };
+    let support = plane(weight.to_vec());
+    let (near_w, far_w) = (support.blur(sigma), support.blur(FALLBACK_SCALE * sigma));
+    let channels: Vec<(Plane, Plane)> = (0..3)
+        .map(|k| {
+            let weighted = plane((0..w * h).map(|p| weight[p] * values[p][k]).collect());
+            (weighted.blur(sigma), weighted.blur(FALLBACK_SCALE * sigma))
+        })
+        .collect();
+    (0..w * h)
+        .map(|p| {
+            let den = near_w.data[p] + FALLBACK_WEIGHT * far_w.data[p];
+            std::array::from_fn(|k| {
+                let (near, far) = &channels[k];
+                let num = near.data[p] + FALLBACK_WEIGHT * far.data[p];
+                if den > 1e-6 { num / den } else { 0.0 }
+            })
+        })
+        .collect()
+}
+
+/// Smallest linear value a colour channel is taken at (a black pixel has no finite log).
+const TINY: f32 = 1e-4;
+
+/// Smallest scale of the robust weights (log ratio): a few per cent, the noise of a camera's and a
+/// JPEG's colours, so that a light the field fits exactly does not make every other pixel an outlier.
+const LEAST_SCALE: f32 = 0.05;
+
+/// 2.5 × the median of `deviation` over the `valid` pixels, at least [`LEAST_SCALE`]: the Cauchy
+/// weight's scale; `None` when no pixel is valid.
+fn robust_scale(deviation: &[f32], valid: &[bool]) -> Option<f32> {
+    let mut d: Vec<f32> = deviation
+        .iter()
+        .zip(valid)
+        .filter(|(_, v)| **v)
+        .map(|(d, _)| *d)
+        .collect();
+    if d.is_empty() {
+        return None;
+    }
+    let mid = d.len() / 2;
+    let median = *d.select_nth_unstable_by(mid, f32::total_cmp).1;
+    Some((2.5 * median).max(LEAST_SCALE))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `w × h` panorama whose colour at each pixel is `colour(u, v)`.
+    fn image(w: usize, h: usize, colour: impl Fn(usize, usize) -> [f32; 3]) -> RgbImage {
+        RgbImage {
+            width: w as u32,
+            height: h as u32,
+            data: (0..w * h).map(|p| colour(p % w, p / w)).collect(),
+        }
+    }
+
+    /// A textured room under a light that is brighter and warmer around column 40 than elsewhere, with
+    /// a dark object standing in the bright patch.
+    fn spot_scene(w: usize, h: usize) -> (RgbImage, RgbImage, impl Fn(usize, usize) -> [f32; 3]) {
+        let texture = |u: usize, v: usize| {
+            let t = 0.35 + 0.15 * (((u / 3 + v / 5) % 4) as f32 / 3.0);
+            [t, 0.9 * t, 0.8 * t]
+        };
+        let light = move |u: usize, _v: usize| {
+            let d = (u as f32 - 40.0) / 20.0;
+            let bright = 1.0 + 2.0 * (-0.5 * d * d).exp();
+            [bright * 1.2, bright, bright * 0.8]
+        };
+        let empty = image(w, h, texture);
+        let object = |u: usize, v: usize| (36..44).contains(&u) && (14..22).contains(&v);
+        let query = image(w, h, |u, v| {
+            if object(u, v) {
+                return [0.05, 0.3, 0.05];
+            }
+            let (t, l) = (texture(u, v), light(u, v));
+            std::array::from_fn(|k| linear_to_srgb((srgb_to_linear(t[k]) * l[k]).min(1.0)))
+        });
+        (query, empty, light)
+    }
+
+    #[test]
+    fn a_pool_of_light_is_recovered_around_an_object_standing_in_it() {
+        let (w, h) = (128, 64);
+        let (query, empty, light) = spot_scene(w, h);
+        let depth = vec![3.0; w * h];
+        let field = fit_light_field(&query, &empty, &depth, None, &LocalLightConfig::default());
+        for (u, v) in [(40, 18), (40, 40), (10, 30), (70, 10)] {
+            let (got, truth) = (field.gain(v * w + u), light(u, v));
+            for k in 0..3 {
+                let rel = (got[k] / truth[k] - 1.0).abs();
+                assert!(
+                    rel < 0.15,
+                    "pixel ({u}, {v}) channel {k}: {got:?} vs {truth:?}"
+                );
+            }
+        }
+        // The relit room explains the query away from the object, and not on it.
+        let relit = field.apply(&empty);
+        let err = |u: usize, v: usize| {
+            let p = v * w + u;
+            (0..3)
+                .map(|k| (relit.data[p][k] - query.data[p][k]).abs())
+                .sum::<f32>()
+                / 3.0
+        };
+        assert!(err(30, 18) < 0.03 && err(50, 30) < 0.03);
+        assert!(err(40, 18) > 0.2);
+    }
+
+    #[test]
+    fn pixels_without_a_surface_or_unseen_keep_the_light_around_them() {
+        let (w, h) = (64, 32);
+        let empty = image(w, h, |_, _| [0.4; 3]);
+        let query = image(w, h, |_, _| [linear_to_srgb(2.0 * srgb_to_linear(0.4)); 3]);
+        let depth: Vec<f32> = (0..w * h)
+            .map(|p| if p % w < 10 { 0.0 } else { 2.0 })
+            .collect();
+        let seen: Vec<bool> = (0..w * h).map(|p| p % w < 50).collect();
+        let field = fit_light_field(&query, &empty, &depth, Some(&seen), &Default::default());
+        for p in [5, 30, 60, 32 * 20 + 5] {
+            for g in field.gain(p) {
+                assert!((g - 2.0).abs() < 0.05, "pixel {p}: {g}");
+            }
+        }
+    }
+}
