@@ -260,13 +260,7 @@ pub fn localize<F: Field>(
         })
         .collect();
     let t2 = Instant::now();
-    let six_dof = LocalizeConfig {
-        fine: AlignConfig {
-            upright: false,
-            ..config.fine.clone()
-        },
-        ..config.clone()
-    };
+    let six_dof = six_dof(config);
     let (first, rest) = config.fine_widths.split_first().unzip();
     let rest = rest.unwrap_or(&[]);
     let (upright_rounds, last) = match (to_level, rest.split_last()) {
@@ -511,21 +505,25 @@ pub fn camera_correlation<F: Field>(
         score: 0.0,
     };
     let last = config.fine_widths.last().copied().unwrap_or(512);
-    let six_dof = LocalizeConfig {
-        fine: AlignConfig {
-            upright: false,
-            ..config.fine.clone()
-        },
-        ..config.clone()
-    };
     refine(
         scene,
         &panorama.without_clipped(),
         &start,
         &[last],
-        &six_dof,
+        &six_dof(config),
     )
     .score
+}
+
+/// `config` with its rendered rounds aligning in six degrees of freedom (the tilt free).
+fn six_dof(config: &LocalizeConfig) -> LocalizeConfig {
+    LocalizeConfig {
+        fine: AlignConfig {
+            upright: false,
+            ..config.fine.clone()
+        },
+        ..config.clone()
+    }
 }
 
 /// Rounds of render-and-align, one per keyframe width.

@@ -494,6 +494,8 @@ pub fn arrangement_error<F: Field>(
 /// How one object of an arrangement stands among the others, as the search would judge it there.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ObjectStanding {
+    /// The object's instance id.
+    pub id: u16,
     /// Its score among the others (see [`SearchConfig::min_score`]); 0 where it collides or blocks
     /// the camera.
     pub score: f64,
@@ -523,6 +525,7 @@ pub fn object_standings<F: Field>(
         .map(|k| {
             let score = standing(&target, &models, found, k, config);
             ObjectStanding {
+                id: found[k].id,
                 score: score.0,
                 explained: score.1,
                 precision: score.2,

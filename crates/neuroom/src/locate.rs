@@ -880,9 +880,9 @@ pub struct SearchObjective {
     /// At the true poses.
     pub truth: f64,
     /// How each true object stands among the other true objects, as the search judges it
-    /// ([`object_standings`]), by id.
+    /// ([`object_standings`]).
     #[serde(default)]
-    pub truth_standings: Vec<(u16, ObjectStanding)>,
+    pub truth_standings: Vec<ObjectStanding>,
 }
 
 /// [`SearchObjective`] of `located` against the arrangement `truth`, with `view` its query at the
@@ -896,11 +896,10 @@ fn search_objective(
 ) -> SearchObjective {
     let input = judging_input(ctx, view, located.search_pose());
     let placed_truth = placed_objects(ctx, truth);
-    let standings = object_standings(&input, &placed_truth, &config.search);
     SearchObjective {
         found: arrangement_error(&input, &located.found, &config.search),
         truth: arrangement_error(&input, &placed_truth, &config.search),
-        truth_standings: placed_truth.iter().map(|f| f.id).zip(standings).collect(),
+        truth_standings: object_standings(&input, &placed_truth, &config.search),
     }
 }
 

@@ -390,8 +390,9 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
                     "  search objective (colour error): found {:.1}, truth {:.1}; {verdict}",
                     o.found, o.truth
                 );
-                for (id, t) in &o.truth_standings {
-                    let name = room.objects.iter().find(|r| r.id == *id);
+                for t in &o.truth_standings {
+                    let id = t.id;
+                    let name = room.objects.iter().find(|r| r.id == id);
                     println!(
                         "  {} (id {id}) at its true pose: score {:.1} over {} pixels ({:.0} % of \
                          those it shows), {}",
