@@ -16,6 +16,7 @@
 //!   with its intrinsics warped onto it, with the pixels it saw).
 
 pub mod align;
+mod cell_smooth;
 pub mod cloud;
 pub mod database;
 pub mod evidence;

@@ -7,13 +7,16 @@
 //! room, light sources and shadows are outliers, re-weighted away over a few rounds), and where few
 //! pixels support it falls back to a broader estimate. It relights the empty room, so that the room
 //! explains the query everywhere but where objects stand, and the objects, which take the light of the
-//! place they stand in ([`LightField::gain`]).
+//! place they stand in. An object hypothesis is judged under the field estimated without its own pixels
+//! ([`LightField::gains_without`]): robust weights cannot tell a pool of light from an object as large
+//! as the Gaussian, whose pixels then make most of their own neighbourhood, but leaving the hypothesis's
+//! pixels out asks what the room around it says of the light there, for the room and the object alike.
 
 use glam::Vec3;
 use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
 use serde::{Deserialize, Serialize};
 
-use crate::plane::Plane;
+use crate::cell_smooth::{CellSmoother, CellSums};
 use crate::shading::{NormalGain, fit_room_shading, panorama_normals};
 
 /// The query's light relative to the captures' at every pixel: a gain per colour channel that depends
@@ -69,14 +72,12 @@ impl RoomLight {
         self.field.apply(&self.shading.apply(empty, normals))
     }
 
-    /// The sRGB colour `c` of an object's surface with unit normal `normal` (camera frame) seen at
-    /// pixel `p`, under this light (in linear light, clipped at white).
-    pub fn relight_object(&self, p: usize, c: [f32; 3], normal: Vec3) -> [f32; 3] {
-        let (s, f) = (self.shading.at(Some(normal)), self.field.gain(p));
-        std::array::from_fn(|k| {
-            let g = s[k] as f32 * f[k];
-            linear_to_srgb((srgb_to_linear(c[k]) * g).min(1.0))
-        })
+    /// The sRGB colour `c` of an object's surface with unit normal `normal` (camera frame) where the
+    /// field's gain is `field_gain` ([`LightField::gain`], or [`LightField::gains_without`] the
+    /// object's pixels), under this light (in linear light, clipped at white).
+    pub fn relight_object(&self, field_gain: [f32; 3], c: [f32; 3], normal: Vec3) -> [f32; 3] {
+        let s = self.shading.at(Some(normal));
+        under_gain(c, std::array::from_fn(|k| s[k] as f32 * field_gain[k]))
     }
 }
 
@@ -114,7 +115,9 @@ const FALLBACK_WEIGHT: f32 = 0.05;
 /// highlights, whose ratio is not the light's.
 const CLIPPED: f32 = 0.97;
 
-/// The query's light relative to the empty room's, per pixel and channel (linear gains).
+/// The query's light relative to the empty room's, per pixel and channel (linear gains), and what it
+/// was estimated from, so that it can be estimated again without some of its pixels
+/// ([`LightField::gains_without`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LightField {
     /// Columns.
@@ -123,27 +126,33 @@ pub struct LightField {
     pub height: usize,
     /// Per pixel, the linear gain per channel.
     pub gains: Vec<[f32; 3]>,
+    smoother: CellSmoother,
+    sums: CellSums,
+    /// Per pixel, the log ratio of the query to the empty room, and the weight it had in the field.
+    log_ratio: Vec<[f32; 3]>,
+    weight: Vec<f32>,
 }
 
 impl LightField {
-    /// A field that changes nothing.
-    pub fn uniform(width: usize, height: usize) -> Self {
-        Self {
-            width,
-            height,
-            gains: vec![[1.0; 3]; width * height],
-        }
-    }
-
     /// The gain at pixel `p`.
     pub fn gain(&self, p: usize) -> [f32; 3] {
         self.gains[p]
     }
 
+    /// The gains at `pixels` of the field estimated as it was but without those pixels: the light
+    /// the room around them shows. An object hypothesis is judged under it, so that a large object,
+    /// whose own pixels fill the Gaussian around them, is not taken for a change of light.
+    pub fn gains_without(&self, pixels: &[u32]) -> Vec<[f32; 3]> {
+        (self.smoother)
+            .without(&self.sums, &self.log_ratio, &self.weight, pixels)
+            .into_iter()
+            .map(|l| l.map(f32::exp))
+            .collect()
+    }
+
     /// The sRGB colour `c` under the gain of pixel `p` (in linear light, clipped at white).
     pub fn relight(&self, p: usize, c: [f32; 3]) -> [f32; 3] {
-        let g = self.gains[p];
-        std::array::from_fn(|k| linear_to_srgb((srgb_to_linear(c[k]) * g[k]).min(1.0)))
+        under_gain(c, self.gains[p])
     }
 
     /// `image` with every pixel under its gain.
@@ -156,6 +165,11 @@ impl LightField {
                 .collect(),
         }
     }
+}
+
+/// The sRGB colour `c` under the linear gains `g` (clipped at white).
+pub fn under_gain(c: [f32; 3], g: [f32; 3]) -> [f32; 3] {
+    std::array::from_fn(|k| linear_to_srgb((srgb_to_linear(c[k]) * g[k]).min(1.0)))
 }
 
 /// The light field mapping `empty` onto `query` (both `width × height` panoramas, sRGB) over the pixels
@@ -194,8 +208,15 @@ pub fn fit_light_field(
         })
         .collect();
     let sigma = config.sigma_deg * w as f32 / 360.0;
+    let smoother = CellSmoother::new(w, h, sigma, FALLBACK_SCALE, FALLBACK_WEIGHT);
+    let field_of = |weight: &[f32]| {
+        let sums = smoother.sums(&log_ratio, weight);
+        let means = smoother.means(&sums);
+        let field: Vec<[f32; 3]> = (0..w * h).map(|p| smoother.at(&means, p)).collect();
+        (sums, field)
+    };
     let mut weight = trust.clone();
-    let mut field = smooth(&log_ratio, &weight, w, h, sigma);
+    let (mut sums, mut field) = field_of(&weight);
     for _ in 0..config.rounds {
         let deviation: Vec<f32> = (0..w * h)
             .map(|p| {
@@ -211,42 +232,17 @@ pub fn fit_light_field(
         weight = (0..w * h)
             .map(|p| trust[p] / (1.0 + (deviation[p] / scale).powi(2)))
             .collect();
-        field = smooth(&log_ratio, &weight, w, h, sigma);
+        (sums, field) = field_of(&weight);
     }
     LightField {
         width: w,
         height: h,
         gains: field.iter().map(|l| l.map(f32::exp)).collect(),
+        smoother,
+        sums,
+        log_ratio,
+        weight,
     }
-}
-
-/// Per channel, the weighted mean of `values` under a Gaussian of `sigma` pixels around every pixel
-/// (normalised convolution), falling back to a [`FALLBACK_SCALE`] times broader one where the narrow
-/// one holds little weight; 0 where neither holds any.
-fn smooth(values: &[[f32; 3]], weight: &[f32], w: usize, h: usize, sigma: f32) -> Vec<[f32; 3]> {
-    let plane = |data: Vec<f32>| Plane {
-        width: w,
-        height: h,
-        data,
-    };
-    let support = plane(weight.to_vec());
-    let (near_w, far_w) = (support.blur(sigma), support.blur(FALLBACK_SCALE * sigma));
-    let channels: Vec<(Plane, Plane)> = (0..3)
-        .map(|k| {
-            let weighted = plane((0..w * h).map(|p| weight[p] * values[p][k]).collect());
-            (weighted.blur(sigma), weighted.blur(FALLBACK_SCALE * sigma))
-        })
-        .collect();
-    (0..w * h)
-        .map(|p| {
-            let den = near_w.data[p] + FALLBACK_WEIGHT * far_w.data[p];
-            std::array::from_fn(|k| {
-                let (near, far) = &channels[k];
-                let num = near.data[p] + FALLBACK_WEIGHT * far.data[p];
-                if den > 1e-6 { num / den } else { 0.0 }
-            })
-        })
-        .collect()
 }
 
 /// Smallest linear value a colour channel is taken at (a black pixel has no finite log).
@@ -337,6 +333,46 @@ mod tests {
         };
         assert!(err(30, 18) < 0.03 && err(50, 30) < 0.03);
         assert!(err(40, 18) > 0.2);
+    }
+
+    #[test]
+    fn a_large_object_is_judged_under_the_light_around_it() {
+        // A uniform room under a warm light, and a green object four Gaussians wide in front of it:
+        // the field takes part of the object's colour for light, the field without its pixels does not.
+        let (w, h) = (256, 128);
+        let empty = image(w, h, |_, _| [0.5; 3]);
+        let light = [1.6f32, 1.2, 0.8];
+        let object = |u: usize, v: usize| (100..160).contains(&u) && (40..100).contains(&v);
+        let query = image(w, h, |u, v| {
+            if object(u, v) {
+                [0.2, 0.6, 0.2]
+            } else {
+                std::array::from_fn(|k| linear_to_srgb(srgb_to_linear(0.5) * light[k]))
+            }
+        });
+        let depth = vec![3.0; w * h];
+        let field = fit_light_field(&query, &empty, &depth, None, &LocalLightConfig::default());
+        let pixels: Vec<u32> = (0..w * h)
+            .filter(|p| object(p % w, p / w))
+            .map(|p| p as u32)
+            .collect();
+        let centre = pixels
+            .iter()
+            .position(|&p| p as usize == 70 * w + 130)
+            .unwrap();
+        let off = |g: [f32; 3]| {
+            (0..3)
+                .map(|k| (g[k] / light[k] - 1.0).abs())
+                .fold(0.0, f32::max)
+        };
+        assert!(
+            off(field.gain(70 * w + 130)) > 0.2,
+            "{:?}",
+            field.gain(70 * w + 130)
+        );
+        let around = field.gains_without(&pixels);
+        assert!(off(around[centre]) < 0.05, "{:?}", around[centre]);
+        assert!(around.iter().all(|g| off(*g) < 0.1));
     }
 
     #[test]

@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cloud::{Cloud, Silhouette, ZBuffer, splat};
 use crate::evidence::{Detection, View, colour_error, dilate, relit, relit_room, room_gains};
+use crate::local_light::under_gain;
 use crate::sphere::{direction, neighbours};
 
 /// Where a model may stand.
@@ -269,22 +270,14 @@ impl Placed {
     ) {
         let mut buf = ZBuffer::default();
         let sil = silhouette(target, &model.fine, pose, &self.depth, &mut buf);
-        let (_, tone) = score(target, self, &sil, config);
-        for (((&p, &c), &d), &u) in sil
-            .pixels
-            .iter()
-            .zip(&sil.colors)
-            .zip(&sil.depths)
-            .zip(&sil.normals)
-        {
-            let p = p as usize;
-            if target.view.sees(p) {
-                let c = target.lit(p, c, u);
-                let error = object_error(target, p, tone.colour(c, u), 1.0);
-                self.error[p] = error.min(config.error_cap) as f32;
-            }
-            self.depth[p] = d;
-            self.room_front[p] = false;
+        let judged = judge(target, self, &sil, config);
+        for s in &judged.samples {
+            let error = object_error(s.query, s.room, judged.tone.colour(s.learnt, s.normal), 1.0);
+            self.error[s.pixel] = error.min(config.error_cap) as f32;
+        }
+        for (&p, &d) in sil.pixels.iter().zip(&sil.depths) {
+            self.depth[p as usize] = d;
+            self.room_front[p as usize] = false;
         }
         self.boxes.push(model.box_at(pose));
     }
@@ -417,15 +410,37 @@ impl<'a, F: Field> Target<'a, F> {
 }
 
 impl<F> Target<'_, F> {
-    /// An object's learnt colour `c` on its surface of world normal `normal` under the light of pixel
-    /// `p` ([`View::light`]): an object takes the light of the place it stands in.
-    fn lit(&self, p: usize, c: Vec3, normal: Vec3) -> Vec3 {
-        match &self.view.light {
-            Some(light) => {
-                let n = self.camera.rotation.transpose() * normal.as_dvec3();
-                Vec3::from(light.relight_object(p, c.to_array(), n.as_vec3()))
+    /// The light at an object hypothesis's `pixels`, as the room around them shows it: per pixel the
+    /// gain of the light field estimated without them ([`crate::local_light::LightField::gains_without`];
+    /// with them, a large object's own colour would pass for the light of the place it stands in).
+    /// `None` with one light everywhere.
+    fn light_around(&self, pixels: &[u32]) -> Option<Vec<[f32; 3]>> {
+        let light = self.view.light.as_ref()?;
+        Some(light.field.gains_without(pixels))
+    }
+
+    /// The empty room's colour at pixel `p` where the light field's gain is `field_gain` (in place of
+    /// the gain `room_color` was relit by; `None`: that one).
+    fn room_under(&self, p: usize, field_gain: Option<[f32; 3]>) -> [f32; 3] {
+        match (&self.view.light, field_gain) {
+            (Some(light), Some(g)) => {
+                let own = light.field.gain(p);
+                under_gain(self.room_color[p], std::array::from_fn(|k| g[k] / own[k]))
             }
-            None => c,
+            _ => self.room_color[p],
+        }
+    }
+
+    /// An object's learnt colour `c` on its surface of world normal `normal` where the light field's
+    /// gain is `field_gain` ([`View::light`]; `None`: one light everywhere): an object takes the light
+    /// of the place it stands in.
+    fn lit(&self, field_gain: Option<[f32; 3]>, c: Vec3, normal: Vec3) -> Vec3 {
+        match (&self.view.light, field_gain) {
+            (Some(light), Some(g)) => {
+                let n = self.camera.rotation.transpose() * normal.as_dvec3();
+                Vec3::from(light.relight_object(g, c.to_array(), n.as_vec3()))
+            }
+            _ => c,
         }
     }
 }
@@ -912,55 +927,93 @@ fn silhouette<F>(
 /// so far, their fraction of its visible pixels), and the object's tone. The score is the sum over its
 /// visible pixels of the scene's colour error there (the empty room's, or a placed object's it would
 /// stand in front of) minus the object's, its colours under the [`Tone`] fitted to those pixels (the
-/// light changed).
+/// light changed). Both the room and the object are seen there under the light the room around the
+/// silhouette shows ([`Target::light_around`]).
 fn score<F>(
     target: &Target<F>,
     placed: &Placed,
     sil: &Silhouette,
     config: &SearchConfig,
-) -> ((f64, usize, f64), Tone) {
-    // A rim pixel is modelled as a mix of the object and the room behind it. What the camera did not
-    // see (outside a photo's field of view) neither supports nor refutes a hypothesis.
-    let (pixels, samples): (Vec<usize>, Vec<ToneSample>) = sil
-        .pixels
-        .iter()
-        .zip(&sil.colors)
-        .zip(&sil.rim)
-        .zip(&sil.normals)
-        .filter(|(((p, _), _), _)| target.view.sees(**p as usize))
-        .map(|(((p, c), rim), n)| {
-            let p = *p as usize;
-            let known = target.view.empty_depth[p] > 0.0;
-            let cover = if *rim && known {
-                config.rim_coverage
-            } else {
-                1.0
-            };
-            let sample = ToneSample {
-                query: target.view.query.data[p],
-                room: target.room_color[p],
-                learnt: target.lit(p, *c, *n),
-                cover,
-                normal: *n,
-            };
-            (p, sample)
-        })
-        .unzip();
-    if pixels.is_empty() {
-        return ((0.0, 0, 0.0), Tone::NEUTRAL);
+) -> (f64, usize, f64) {
+    let judged = judge(target, placed, sil, config);
+    if judged.samples.is_empty() {
+        return (0.0, 0, 0.0);
     }
-    let tone = fit_tone(&samples, config);
     let (mut total, mut wins) = (0.0f64, 0usize);
-    for (&p, s) in pixels.iter().zip(&samples) {
-        let baseline = placed.error[p] as f64;
-        let error = object_error(target, p, tone.colour(s.learnt, s.normal), s.cover);
-        let d = baseline - error.min(config.error_cap);
+    for s in &judged.samples {
+        let error = object_error(
+            s.query,
+            s.room,
+            judged.tone.colour(s.learnt, s.normal),
+            s.cover,
+        );
+        let d = s.baseline - error.min(config.error_cap);
         total += d;
         if d > 0.0 {
             wins += 1;
         }
     }
-    ((total, wins, wins as f64 / pixels.len() as f64), tone)
+    let n = judged.samples.len();
+    (total, wins, wins as f64 / n as f64)
+}
+
+/// A silhouette's visible pixels as the scene and the object would show them, and the object's tone.
+struct Judged {
+    samples: Vec<ToneSample>,
+    tone: Tone,
+}
+
+/// The samples of `sil`'s visible pixels against the scene `placed`, under the light around the
+/// silhouette, and the tone fitted to them.
+fn judge<F>(
+    target: &Target<F>,
+    placed: &Placed,
+    sil: &Silhouette,
+    config: &SearchConfig,
+) -> Judged {
+    // What the camera did not see (outside a photo's field of view) neither supports nor refutes a
+    // hypothesis.
+    let visible: Vec<usize> = (0..sil.pixels.len())
+        .filter(|&i| target.view.sees(sil.pixels[i] as usize))
+        .collect();
+    let pixels: Vec<u32> = visible.iter().map(|&i| sil.pixels[i]).collect();
+    let around = target.light_around(&pixels);
+    let samples: Vec<ToneSample> = visible
+        .iter()
+        .enumerate()
+        .map(|(j, &i)| {
+            let p = sil.pixels[i] as usize;
+            let gain = around.as_ref().map(|a| a[j]);
+            let known = target.view.empty_depth[p] > 0.0;
+            // A rim pixel is modelled as a mix of the object and the room behind it.
+            let cover = if sil.rim[i] && known {
+                config.rim_coverage
+            } else {
+                1.0
+            };
+            let (query, room) = (target.view.query.data[p], target.room_under(p, gain));
+            let baseline = if placed.room_front[p] && known {
+                colour_error(query, room).min(config.error_cap as f32)
+            } else {
+                placed.error[p]
+            };
+            ToneSample {
+                pixel: p,
+                query,
+                room,
+                learnt: target.lit(gain, sil.colors[i], sil.normals[i]),
+                cover,
+                normal: sil.normals[i],
+                baseline: baseline as f64,
+            }
+        })
+        .collect();
+    let tone = if samples.is_empty() {
+        Tone::NEUTRAL
+    } else {
+        fit_tone(&samples, config)
+    };
+    Judged { samples, tone }
 }
 
 /// How an object's learnt colours look under the panorama's light: a per-channel gain (the light's
@@ -985,8 +1038,10 @@ impl Tone {
     }
 }
 
-/// One visible pixel of a silhouette, for [`fit_tone`].
+/// One visible pixel of a silhouette, for [`fit_tone`] and [`score`].
 struct ToneSample {
+    /// The pixel.
+    pixel: usize,
     /// The panorama's colour.
     query: [f32; 3],
     /// The empty room's colour (behind a rim pixel's uncovered part).
@@ -997,6 +1052,8 @@ struct ToneSample {
     cover: f64,
     /// The object's normal there (world frame).
     normal: Vec3,
+    /// The scene's colour error there (the empty room's under the same light, or a placed object's).
+    baseline: f64,
 }
 
 /// The [`Tone`] (within the search's limits) that best explains `samples`, robustly: a least-squares
@@ -1088,10 +1145,9 @@ fn limited_gain(gain: [f64; 3], config: &SearchConfig) -> [f64; 3] {
     gain.map(|g| level * (g / level).clamp(1.0 / config.max_chroma, config.max_chroma))
 }
 
-/// The colour error at pixel `p` of an object showing colour `c` covering the fraction `cover` of the
-/// pixel (the empty room's colour fills the rest).
-fn object_error<F>(target: &Target<F>, p: usize, c: [f64; 3], cover: f64) -> f64 {
-    let (q, r) = (target.view.query.data[p], target.room_color[p]);
+/// The colour error against the panorama's colour `q` of an object showing colour `c` covering the
+/// fraction `cover` of the pixel (the empty room's colour `r` fills the rest).
+fn object_error(q: [f32; 3], r: [f32; 3], c: [f64; 3], cover: f64) -> f64 {
     (0..3)
         .map(|k| {
             let predicted = cover * c[k] + (1.0 - cover) * r[k] as f64;
@@ -1479,7 +1535,7 @@ fn hypothesis_score<F: Field>(
     }
     let cloud = if coarse { &model.coarse } else { &model.fine };
     let sil = silhouette(target, cloud, pose, &placed.depth, buf);
-    let (s, _) = score(target, placed, &sil, config);
+    let s = score(target, placed, &sil, config);
     misfit_discounted(s, target, model, pose, config)
 }
 
@@ -1571,7 +1627,7 @@ fn standing<F: Field>(
     }
     let mut buf = ZBuffer::default();
     let sil = silhouette(target, &model.fine, &pose, &others.depth, &mut buf);
-    let (s, _) = score(target, &others, &sil, config);
+    let s = score(target, &others, &sil, config);
     misfit_discounted(s, target, model, &pose, config)
 }
 
@@ -1758,11 +1814,13 @@ mod tests {
         for (normal, shade) in faces {
             for c in learnt {
                 out.push(ToneSample {
+                    pixel: out.len(),
                     query: std::array::from_fn(|k| (gain[k] * shade * c[k] as f64) as f32),
                     room: [0.9; 3],
                     learnt: c,
                     cover: 1.0,
                     normal,
+                    baseline: 0.3,
                 });
             }
         }

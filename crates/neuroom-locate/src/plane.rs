@@ -66,12 +66,8 @@ impl Plane {
         if sigma <= 0.0 {
             return self.clone();
         }
-        let radius = (3.0 * sigma).ceil() as isize;
-        let kernel: Vec<f32> = (-radius..=radius)
-            .map(|k| (-0.5 * (k as f32 / sigma).powi(2)).exp())
-            .collect();
-        let norm: f32 = kernel.iter().sum();
-        let kernel: Vec<f32> = kernel.iter().map(|k| k / norm).collect();
+        let kernel = gaussian_taps(sigma);
+        let radius = (kernel.len() / 2) as isize;
         let (w, h) = (self.width, self.height);
         let mut rows = Plane::filled(w, h, 0.0);
         for v in 0..h {
@@ -110,6 +106,17 @@ impl Plane {
         }
         (gx, gy)
     }
+}
+
+/// The normalised taps of a Gaussian of `sigma` pixels (> 0), offsets `-r..=r` for `r = ⌈3σ⌉`: the
+/// kernel of [`Plane::blur`].
+pub(crate) fn gaussian_taps(sigma: f32) -> Vec<f32> {
+    let radius = (3.0 * sigma).ceil() as isize;
+    let taps: Vec<f32> = (-radius..=radius)
+        .map(|k| (-0.5 * (k as f32 / sigma).powi(2)).exp())
+        .collect();
+    let norm: f32 = taps.iter().sum();
+    taps.iter().map(|t| t / norm).collect()
 }
 
 /// Calls `visit(target, source)` for every pixel `source` of a `sw × sh` image, with the pixel `target`

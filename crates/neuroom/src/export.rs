@@ -11,7 +11,8 @@ use neuroom_core::formats::{Arrangement, atomic_write, read_arrangement, read_rg
 
 use neuroom_core::metrics::{ArrangementScore, Symmetry, psnr, ssim};
 use neuroom_core::obb::OrientedBox;
-use neuroom_export::mesh::{Geometry, MeshDetail, SceneMeshes, scene_meshes};
+pub use neuroom_export::mesh::MeshDetail;
+use neuroom_export::mesh::{Geometry, SceneMeshes, scene_meshes};
 use neuroom_export::report::{Figure, Report, Section, Table};
 use neuroom_export::room_gltf::{ExportCamera, room_glb};
 use neuroom_export::topdown::{MapBox, TopDown};

@@ -8,7 +8,8 @@ use glam::Vec3;
 use neuroom_core::formats::{self, Arrangement, Room, read_arrangement, read_rgb, read_room};
 use neuroom_core::image::RgbImage;
 use neuroom_field::NeusField;
-use neuroom_fit::{FitConfig, FitReport, FitResult, Hint, IterationLog, ObjectInit, RoomBox, fit};
+pub use neuroom_fit::FitConfig;
+use neuroom_fit::{FitReport, FitResult, Hint, IterationLog, ObjectInit, RoomBox, fit};
 use neuroom_train::{MANIFEST_FILE, ModelKind};
 
 use crate::locate::{LocateConfig, LocateContext, check_fit};

@@ -269,7 +269,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
         a.noise.len() == 3 && a.noise.iter().all(|v| v.is_finite() && *v >= 0.0),
         "--noise takes three non-negative numbers: centimetres, yaw degrees, tilt degrees"
     );
-    let mut config = neuroom_fit::FitConfig::default();
+    let mut config = neuroom::fit::FitConfig::default();
     config.pose_iterations = a.pose_iterations.unwrap_or(config.pose_iterations);
     config.appearance_iterations = a
         .appearance_iterations
@@ -280,7 +280,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
         models: a.models,
         panoramas: a.panoramas,
         seed: a.seed,
-        noise: neuroom_fit::bench::PoseNoise {
+        noise: neuroom::bench_fit::PoseNoise {
             position_m: a.noise[0] / 100.0,
             yaw_deg: a.noise[1],
             tilt_deg: a.noise[2],
@@ -318,9 +318,9 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
         object_light: a.object_light.clone(),
         ..defaults
     };
-    let fit = neuroom_fit::FitConfig {
+    let fit = neuroom::fit::FitConfig {
         preview_height: None,
-        ..neuroom_fit::FitConfig::refinement()
+        ..neuroom::fit::FitConfig::refinement()
     };
     let fit = a.fit.then_some(&fit);
     let room = match (&a.room, a.objects) {

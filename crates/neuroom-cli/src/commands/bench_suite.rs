@@ -57,9 +57,9 @@ pub fn run_suite(
             ..SuiteTraining::default()
         },
         locate,
-        fit: (!args.no_fit).then(|| neuroom_fit::FitConfig {
+        fit: (!args.no_fit).then(|| neuroom::fit::FitConfig {
             preview_height: None,
-            ..neuroom_fit::FitConfig::refinement()
+            ..neuroom::fit::FitConfig::refinement()
         }),
         effect,
     };

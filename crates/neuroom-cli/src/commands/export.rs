@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use neuroom::export::ExportOptions;
-use neuroom_export::mesh::MeshDetail;
+use neuroom::export::MeshDetail;
 
 /// Export a solved room: `--gltf` writes one glTF 2.0 binary (the room and every object as meshes
 /// extracted from their SDFs, vertex colours from the colour network under the solved lighting, objects

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use neuroom_fit::FitConfig;
+use neuroom::fit::FitConfig;
 
 use crate::progress::StageBars;
 

@@ -3,8 +3,8 @@
 
 use std::path::PathBuf;
 
+use neuroom::fit::FitConfig;
 use neuroom::locate::LocateConfig;
-use neuroom_fit::FitConfig;
 
 use crate::progress::StageBars;
 
