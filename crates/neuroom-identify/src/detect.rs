@@ -7,7 +7,7 @@
 //! region keeps its pixels and is named by the models the network sees confidently inside it (one
 //! detection per such model), or stays unnamed where the network sees none.
 
-use neuroom_locate::evidence::{Detection, Detector, View, components};
+use neuroom_locate::evidence::{Detection, Detector, SearchView, components};
 use neuroom_locate::plane::downsample_rgb;
 use serde::{Deserialize, Serialize};
 
@@ -47,7 +47,7 @@ pub struct NetworkDetector<'a> {
 
 impl NetworkDetector<'_> {
     /// The network's labels of `view` at its working size; `None` for an empty view.
-    fn predict(&self, view: &View) -> Option<Prediction> {
+    fn predict(&self, view: &SearchView) -> Option<Prediction> {
         let net = &self.network.config;
         let (lw, lh) = (net.width, net.height());
         if view.width() == 0 || view.height() == 0 {
@@ -71,7 +71,7 @@ impl NetworkDetector<'_> {
     /// sees inside them: per region, one detection per model that holds at least `min_cells` confident
     /// cells and [`DetectConfig::region_share`] of the region's confident object cells; the region
     /// unnamed where it sees none.
-    pub fn name_regions(&self, view: &View, regions: Vec<Detection>) -> Vec<Detection> {
+    pub fn name_regions(&self, view: &SearchView, regions: Vec<Detection>) -> Vec<Detection> {
         let Some(prediction) = self.predict(view) else {
             return regions;
         };
@@ -116,7 +116,7 @@ impl NetworkDetector<'_> {
 }
 
 impl Detector for NetworkDetector<'_> {
-    fn detect(&self, view: &View) -> Vec<Detection> {
+    fn detect(&self, view: &SearchView) -> Vec<Detection> {
         let net = &self.network.config;
         let (lw, lh) = (net.width, net.height());
         let Some(prediction) = self.predict(view) else {

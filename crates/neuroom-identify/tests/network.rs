@@ -9,7 +9,7 @@ use neuroom_identify::train::{Adam, TrainLog};
 use neuroom_identify::{
     DetectConfig, NETWORK_FILE, NetConfig, Network, NetworkDetector, Sample, TrainSettings, train,
 };
-use neuroom_locate::evidence::{Detection, Detector, View};
+use neuroom_locate::evidence::{Detection, Detector, SearchView};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -126,7 +126,7 @@ fn training_lowers_the_loss_and_then_segments_the_squares() {
             .map(|i| image.data[(i / (2 * W) / 2) * W + (i % (2 * W)) / 2])
             .collect(),
     };
-    let view = View {
+    let view = SearchView {
         query: upsample(&sample.query),
         empty: upsample(&sample.empty),
         empty_depth: vec![2.0; 4 * W * H],

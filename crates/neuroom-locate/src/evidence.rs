@@ -14,7 +14,7 @@ use crate::sphere::neighbours;
 
 /// The input panorama and the empty room, both at the working resolution, at the found camera.
 #[derive(Clone, Debug)]
-pub struct View {
+pub struct SearchView {
     /// Input panorama, downsampled.
     pub query: RgbImage,
     /// Empty room rendered at the camera.
@@ -30,7 +30,7 @@ pub struct View {
     pub light: Option<RoomLight>,
 }
 
-impl View {
+impl SearchView {
     /// Columns.
     pub fn width(&self) -> usize {
         self.query.width as usize
@@ -59,7 +59,7 @@ pub struct Detection {
 /// Finds object regions in a view.
 pub trait Detector {
     /// Detections, in any order; they may overlap.
-    fn detect(&self, view: &View) -> Vec<Detection>;
+    fn detect(&self, view: &SearchView) -> Vec<Detection>;
 }
 
 /// Thresholds of [`ResidualDetector`].
@@ -91,7 +91,7 @@ impl Default for ResidualDetector {
 }
 
 impl Detector for ResidualDetector {
-    fn detect(&self, view: &View) -> Vec<Detection> {
+    fn detect(&self, view: &SearchView) -> Vec<Detection> {
         let residual = residual(view);
         let mut sorted: Vec<f32> = (residual.iter().enumerate())
             .filter(|(p, _)| view.sees(*p))
@@ -129,7 +129,7 @@ impl Detector for ResidualDetector {
 
 /// Per-channel gain from the empty room to the query: the median ratio of linear values over seen
 /// pixels with a depth (a changed light colour or exposure).
-pub fn room_gains(view: &View) -> [f32; 3] {
+pub fn room_gains(view: &SearchView) -> [f32; 3] {
     let depth: Vec<f32> = (view.empty_depth.iter().enumerate())
         .map(|(p, d)| if view.sees(p) { *d } else { 0.0 })
         .collect();
@@ -163,7 +163,7 @@ pub fn relit(color: [f32; 3], gains: [f32; 3]) -> [f32; 3] {
 
 /// The empty room's colour per pixel as the query's light shows it under one gain per channel
 /// ([`room_gains`], [`relit`]).
-pub fn relit_room(view: &View) -> Vec<[f32; 3]> {
+pub fn relit_room(view: &SearchView) -> Vec<[f32; 3]> {
     let gains = room_gains(view);
     view.empty.data.iter().map(|e| relit(*e, gains)).collect()
 }
@@ -175,7 +175,7 @@ pub fn colour_error(a: [f32; 3], b: [f32; 3]) -> f32 {
 
 /// Mean absolute sRGB difference per pixel between the query and the relit empty room; 0 where the
 /// empty room has no surface or the camera saw nothing (nothing is known there).
-pub fn residual(view: &View) -> Vec<f32> {
+pub fn residual(view: &SearchView) -> Vec<f32> {
     relit_room(view)
         .iter()
         .zip(&view.query.data)
@@ -277,7 +277,7 @@ mod tests {
         let empty = grey(w, h, 0.6);
         let mut query = empty.map(|c| c.map(|x| x * 0.8));
         paint(&mut query, 6..11, 10..16, [0.1, 0.2, 0.05]);
-        let mut view = View {
+        let mut view = SearchView {
             query,
             empty,
             empty_depth: vec![2.0; w * h],
@@ -302,7 +302,7 @@ mod tests {
         paint(&mut query, 0..3, 2..8, [0.1, 0.1, 0.1]);
         paint(&mut query, 6..11, 2..8, [1.0, 1.0, 1.0]);
         paint(&mut query, 6..11, 20..26, [0.1, 0.2, 0.05]);
-        let view = View {
+        let view = SearchView {
             query,
             empty,
             empty_depth: vec![2.0; w * h],

@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::cloud::{Cloud, Silhouette, ZBuffer, splat};
-use crate::evidence::{Detection, View, colour_error, dilate, relit, relit_room, room_gains};
+use crate::evidence::{Detection, SearchView, colour_error, dilate, relit, relit_room, room_gains};
 use crate::local_light::under_gain;
 use crate::sphere::{direction, neighbours};
 
@@ -339,7 +339,7 @@ pub(crate) fn stands_inside(
 
 /// What the search compares against.
 struct Target<'a, F> {
-    view: &'a View,
+    view: &'a SearchView,
     /// The empty room's field (wall distances).
     room: &'a F,
     camera: Pose,
@@ -432,7 +432,7 @@ impl<F> Target<'_, F> {
     }
 
     /// An object's learnt colour `c` on its surface of world normal `normal` where the light field's
-    /// gain is `field_gain` ([`View::light`]; `None`: one light everywhere): an object takes the light
+    /// gain is `field_gain` ([`SearchView::light`]; `None`: one light everywhere): an object takes the light
     /// of the place it stands in.
     fn lit(&self, field_gain: Option<[f32; 3]>, c: Vec3, normal: Vec3) -> Vec3 {
         match (&self.view.light, field_gain) {
@@ -451,7 +451,7 @@ pub struct SearchInput<'a, F> {
     /// The room without objects (a scene of the background alone, for floor heights and wall normals).
     pub empty: &'a Scene<F>,
     /// The panorama and the empty room at the working resolution.
-    pub view: &'a View,
+    pub view: &'a SearchView,
     /// The found camera.
     pub camera_to_world: Pose,
     /// Where objects are seen.
@@ -2063,7 +2063,7 @@ mod tests {
 
     /// A grey box standing in a plain room, its colours in the panorama tinted by `tint` (the room's
     /// not), seen from 1.4 m high: the room, the view, the box's model, the camera and the box's pose.
-    fn tinted_box(tint: Vec3) -> (Scene<AnalyticField>, View, ObjectModel, Pose, Pose) {
+    fn tinted_box(tint: Vec3) -> (Scene<AnalyticField>, SearchView, ObjectModel, Pose, Pose) {
         use neuroom_field::{AnalyticColor, CodeSet};
         use neuroom_render::{Background, InstanceCodes, Model, RenderConfig, SceneObject};
         let (centre, half) = (Vec3::new(2.0, 1.5, 1.3), Vec3::new(2.0, 1.5, 1.3));
@@ -2111,7 +2111,7 @@ mod tests {
         let (query, _, _) = neuroom_render::render_image(&with_box, &cam, &camera, &config);
         let empty = scene(Vec::new());
         let (room_rgb, depth) = crate::render_background(&empty, &camera, width as usize, &config);
-        let view = View {
+        let view = SearchView {
             query,
             empty: room_rgb,
             empty_depth: depth,

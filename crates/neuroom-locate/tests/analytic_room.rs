@@ -7,7 +7,7 @@ use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_field::{AnalyticColor, AnalyticField, CodeSet};
 use neuroom_locate::cloud::surface_cloud;
-use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View};
+use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, SearchView};
 use neuroom_locate::objects::{
     Found, ObjectModel, Placement, SearchConfig, SearchInput, arrangement_error, find_objects,
     pose_score,
@@ -283,12 +283,12 @@ fn object_models() -> Vec<ObjectModel> {
 }
 
 /// The view of the red box at `truth` from `camera` under a 0.9 exposure, with the empty room beside it.
-fn object_view(camera: &Pose, truth: &Pose) -> (Scene<AnalyticField>, View) {
+fn object_view(camera: &Pose, truth: &Pose) -> (Scene<AnalyticField>, SearchView) {
     let empty = scene(None);
     let width = 128;
     let query = panorama(&scene(Some((0, *truth))), camera, width, 0.9);
     let (room, depth) = render_background(&empty, camera, width as usize, &RenderConfig::default());
-    let view = View {
+    let view = SearchView {
         query,
         empty: room,
         empty_depth: depth,
@@ -303,7 +303,7 @@ struct PlacedBox {
     camera: Pose,
     truth: Pose,
     empty: Scene<AnalyticField>,
-    view: View,
+    view: SearchView,
     detections: Vec<Detection>,
     models: Vec<ObjectModel>,
 }
@@ -449,7 +449,7 @@ fn an_object_in_a_photo_is_placed_and_what_the_photo_cannot_see_is_not_held_agai
     let (rgb, intrinsics) = photo(&scene(Some((0, truth))), &camera);
     let sphere = SphereImage::from_photo(&rgb, &intrinsics).downsample(256, 128);
     let (room, depth) = render_background(&empty, &camera, 256, &RenderConfig::default());
-    let view = View {
+    let view = SearchView {
         query: sphere.rgb,
         empty: room,
         empty_depth: depth,

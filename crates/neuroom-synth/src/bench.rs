@@ -13,7 +13,7 @@ use serde::Serialize;
 use crate::generate::{ROOM_AO_DISTANCE, SynthError, build_models};
 use crate::illumination::{load_hdris, test_lighting};
 use crate::preset::Preset;
-use crate::render::{LightRig, Quality, View, render};
+use crate::render::{LightRig, PlacedCamera, Quality, render};
 use crate::sampler::{Item, RoomSpace, YawBox};
 use crate::scene::{Instance, Scene};
 use crate::shell::build_shell;
@@ -100,7 +100,7 @@ pub fn bench_panorama(width: u32, quality: Quality, seed: u64) -> Result<BenchRe
     let rendered = render(
         &scene,
         &rig,
-        &View {
+        &PlacedCamera {
             camera,
             camera_to_world: camera_pose,
         },

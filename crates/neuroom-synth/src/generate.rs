@@ -25,7 +25,7 @@ use crate::illumination::{Hdri, background_lighting, load_hdris, object_lighting
 use crate::lighting::Lighting;
 use crate::ply::write_ply;
 use crate::preset::Preset;
-use crate::render::{LightRig, Rendered, View, render};
+use crate::render::{LightRig, PlacedCamera, RenderedFrame, render};
 use crate::sampler::{Item, Placed, RoomSpace, YawBox};
 use crate::scene::{Instance, Scene};
 use crate::sh3d::Sh3dCatalog;
@@ -200,7 +200,7 @@ pub(crate) fn build_models(
 }
 
 /// Drops alpha (every pixel of a closed room is covered).
-fn rgb_of(r: &Rendered) -> RgbImage {
+fn rgb_of(r: &RenderedFrame) -> RgbImage {
     r.colour.map(|c| [c[0], c[1], c[2]])
 }
 
@@ -208,7 +208,7 @@ fn rgb_of(r: &Rendered) -> RgbImage {
 fn write_view(
     dir: &Path,
     index: usize,
-    rendered: &Rendered,
+    rendered: &RenderedFrame,
     camera: Pinhole,
     pose: Pose,
     rgba: bool,
@@ -282,7 +282,7 @@ fn write_background(
     let poses = room_views(cfg.views, ctx.shell.size, 0.4, &mut rng);
     let mut frames = Vec::new();
     for (i, pose) in poses.into_iter().enumerate() {
-        let view = View {
+        let view = PlacedCamera {
             camera: Camera::Pinhole(camera),
             camera_to_world: pose,
         };
@@ -341,7 +341,7 @@ fn write_object_captures(
             .into_iter()
             .enumerate()
         {
-            let view = View {
+            let view = PlacedCamera {
                 camera: Camera::Pinhole(camera),
                 camera_to_world: pose,
             };
@@ -453,7 +453,7 @@ fn write_panoramas(
                 .find(|h| Some(&h.name) == lighting.environment.as_ref().map(|e| &e.hdri))
                 .map(|h| h.environment);
             let rig = LightRig::new(lighting, hdri, Some(ctx.shell.bounce), ROOM_AO_DISTANCE);
-            let view = View {
+            let view = PlacedCamera {
                 camera,
                 camera_to_world: camera_pose,
             };

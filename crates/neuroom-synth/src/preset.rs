@@ -10,7 +10,7 @@ use crate::render::Quality;
 
 /// One distinct model (learned once, captured once).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ModelSpec {
+pub struct PresetModel {
     /// Capture and mesh name.
     pub name: String,
     /// Procedural kind (also the category matched against an OBJ catalog).
@@ -79,7 +79,7 @@ pub struct Preset {
     /// Nominal inner size [W, D, H] in metres (W and D vary by ±8 % per seed).
     pub room_size: [f64; 3],
     /// Distinct models.
-    pub models: Vec<ModelSpec>,
+    pub models: Vec<PresetModel>,
     /// Objects, in id order (ids 1, 2, …).
     pub objects: Vec<ObjectSpec>,
     /// Object capture settings.
@@ -93,8 +93,8 @@ pub struct Preset {
 /// Names accepted by [`Preset::named`].
 pub const PRESET_NAMES: [&str; 5] = ["tiny", "studio", "bedroom", "living", "office"];
 
-fn model(name: &str, kind: Kind) -> ModelSpec {
-    ModelSpec {
+fn model(name: &str, kind: Kind) -> PresetModel {
+    PresetModel {
         name: name.into(),
         kind,
     }

@@ -153,7 +153,7 @@ pub struct Quality {
 
 /// A camera placed in the world.
 #[derive(Clone, Copy, Debug)]
-pub struct View {
+pub struct PlacedCamera {
     /// Intrinsics.
     pub camera: Camera,
     /// Camera-to-world pose in the camera model's own frame convention.
@@ -162,7 +162,7 @@ pub struct View {
 
 /// One rendered view.
 #[derive(Clone, Debug)]
-pub struct Rendered {
+pub struct RenderedFrame {
     /// sRGB colour with coverage alpha (alpha 0 where no surface was hit).
     pub colour: RgbaImage,
     /// Stored depth at pixel centres in metres (pinhole: z-depth; panorama: ray distance), 0 = none.
@@ -184,11 +184,11 @@ struct Pixel {
 pub fn render(
     scene: &Scene,
     rig: &LightRig,
-    view: &View,
+    view: &PlacedCamera,
     quality: Quality,
     seed: u64,
     stream: u64,
-) -> Rendered {
+) -> RenderedFrame {
     let (w, h) = (view.camera.width(), view.camera.height());
     let rows: Vec<Vec<Pixel>> = (0..h)
         .into_par_iter()
@@ -199,7 +199,7 @@ pub fn render(
         })
         .collect();
     let pixels: Vec<Pixel> = rows.into_iter().flatten().collect();
-    Rendered {
+    RenderedFrame {
         colour: Image {
             width: w,
             height: h,
@@ -231,7 +231,7 @@ fn pixel_rng(seed: u64, stream: u64, u: u32, v: u32) -> Pcg32 {
 fn render_pixel(
     scene: &Scene,
     rig: &LightRig,
-    view: &View,
+    view: &PlacedCamera,
     q: Quality,
     seed: u64,
     stream: u64,

@@ -12,7 +12,7 @@
 //!
 //! Object captures go through `capture_to_object`, so rays live in the object's canonical frame; the
 //! background stays in the world frame. Every `holdout`-th frame (index 0, h, 2h, …) is held out whole for
-//! evaluation ([`View`]). Storage is structure-of-arrays with compact types (≈ 32 bytes a ray).
+//! evaluation ([`FrameView`]). Storage is structure-of-arrays with compact types (≈ 32 bytes a ray).
 
 use crate::normals::normals_from_depth;
 use glam::{DVec2, Vec3};
@@ -102,7 +102,7 @@ impl Aabb {
 
 /// One frame's pixels in the model frame: a held-out view, or a training frame before it becomes rays.
 #[derive(Clone, Debug)]
-pub struct View {
+pub struct FrameView {
     /// Index of the frame in the capture.
     pub index: usize,
     /// Intrinsics.
@@ -121,7 +121,7 @@ pub struct View {
     pub normal: Vec<[f32; 3]>,
 }
 
-impl View {
+impl FrameView {
     /// Camera centre in the model frame.
     pub fn origin(&self) -> Vec3 {
         self.camera_to_model.translation.as_vec3()
@@ -180,7 +180,7 @@ impl Rays {
         Vec3::from(self.normal[i].map(|c| c as f32 / 32767.0))
     }
 
-    fn push_view(&mut self, view: &View, frame: u16, keep: &dyn Fn(Vec3, Vec3) -> bool) {
+    fn push_view(&mut self, view: &FrameView, frame: u16, keep: &dyn Fn(Vec3, Vec3) -> bool) {
         for i in 0..view.rgb.len() {
             let empty = match view.class[i] {
                 PixelClass::Ignored => continue,
@@ -216,7 +216,7 @@ pub struct Dataset {
     /// Capture frame index of each training frame.
     pub frame_index: Vec<usize>,
     /// Held-out views, whole.
-    pub held_out: Vec<View>,
+    pub held_out: Vec<FrameView>,
     /// Names of the capture's lightings, in light-code order (`capture` when frames name none).
     pub light_names: Vec<String>,
     /// Bounds of the back-projected surface points and camera centres of all frames (model frame).
@@ -273,7 +273,7 @@ impl Dataset {
 }
 
 /// Reads every frame of `capture` (in parallel) as a whole view of `role`'s model.
-pub fn load_views(capture: &Capture, role: &Role) -> Result<Vec<View>, FormatError> {
+pub fn load_views(capture: &Capture, role: &Role) -> Result<Vec<FrameView>, FormatError> {
     let light_names = light_names(capture);
     capture
         .frames
@@ -303,7 +303,7 @@ fn load_view(
     index: usize,
     role: &Role,
     light_names: &[String],
-) -> Result<View, FormatError> {
+) -> Result<FrameView, FormatError> {
     let image_path = capture.resolve(&frame.image);
     let rgba = read_rgba(&image_path)?.image;
     let cam = frame.camera;
@@ -361,7 +361,7 @@ fn load_view(
         .collect();
     let rot = camera_to_model.rotation.as_mat3();
     let light_name = frame.light.as_deref().unwrap_or("capture");
-    Ok(View {
+    Ok(FrameView {
         index,
         camera: cam,
         camera_to_model,
@@ -390,7 +390,7 @@ fn sized<T>(data: Vec<T>, n: usize, path: &std::path::Path) -> Result<Vec<T>, Fo
 }
 
 /// Bounds of every view's surface points and camera centre.
-fn observed_bounds(views: &[View]) -> Aabb {
+fn observed_bounds(views: &[FrameView]) -> Aabb {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for v in views {
         lo = lo.min(v.origin());

@@ -10,7 +10,7 @@
 //!   with code 0, PSNR of each against the re-lit images.
 
 use crate::augment::Augmentation;
-use crate::dataset::{Aabb, PixelClass, View};
+use crate::dataset::{Aabb, FrameView, PixelClass};
 use crate::mesh_extract::{Grid, extract_surface};
 use glam::Vec3;
 use neuroom_core::mesh::TriMesh;
@@ -66,7 +66,7 @@ const RAYS_PER_BATCH: usize = 4096;
 /// `field` (model frame) inside `bounds` with light code `light`.
 pub fn render_view(
     field: &NeusField<f32>,
-    view: &View,
+    view: &FrameView,
     bounds: &Aabb,
     light: u32,
     options: &RenderOptions,
@@ -232,7 +232,7 @@ pub fn psnr_of(mse: f64) -> f64 {
 }
 
 /// Squared colour error of `rendered` against `target` over the view's surface pixels.
-pub fn color_error(view: &View, rendered: &[[f32; 3]], target: &[[f32; 3]]) -> ViewScore {
+pub fn color_error(view: &FrameView, rendered: &[[f32; 3]], target: &[[f32; 3]]) -> ViewScore {
     let mut s = ViewScore::default();
     for i in (0..view.rgb.len()).filter(|&i| view.class[i] == PixelClass::Surface) {
         for c in 0..3 {
@@ -245,7 +245,7 @@ pub fn color_error(view: &View, rendered: &[[f32; 3]], target: &[[f32; 3]]) -> V
 }
 
 /// Absolute distance errors (metres) where the view's depth is known and the render hit something.
-pub fn distance_errors(view: &View, rendered: &Rendered) -> Vec<f32> {
+pub fn distance_errors(view: &FrameView, rendered: &Rendered) -> Vec<f32> {
     (0..view.rgb.len())
         .filter(|&i| {
             view.class[i] == PixelClass::Surface
@@ -263,7 +263,7 @@ pub fn distance_errors(view: &View, rendered: &Rendered) -> Vec<f32> {
 /// difference × 1.4826 (exact for Gaussian noise) / √(5/4) (the neighbours' mean carries a quarter of the
 /// variance). Texture raises the estimate of the noise and heavy-tailed noise lowers it: a guide, not a
 /// bound. `None` without such pixels.
-pub fn noise_psnr_ceiling(views: &[View]) -> Option<f64> {
+pub fn noise_psnr_ceiling(views: &[FrameView]) -> Option<f64> {
     let mut differences = Vec::new();
     for view in views {
         let w = view.camera.width as usize;
@@ -297,7 +297,7 @@ pub fn median(mut v: Vec<f32>) -> f32 {
 }
 
 /// The view's colours re-lit by augmentation map `k` (surface pixels; others unchanged).
-pub fn relit_target(view: &View, augmentation: &Augmentation, k: usize) -> Vec<[f32; 3]> {
+pub fn relit_target(view: &FrameView, augmentation: &Augmentation, k: usize) -> Vec<[f32; 3]> {
     (0..view.rgb.len())
         .map(|i| {
             let n = Vec3::from(view.normal[i]);
@@ -358,13 +358,13 @@ pub const LIGHT_CHECK_VIEWS: usize = 3;
 /// with code 0 (rendered once per view), errors summed over up to [`LIGHT_CHECK_VIEWS`] views.
 fn light_code_checks(
     field: &NeusField<f32>,
-    views: &[View],
+    views: &[FrameView],
     bounds: &Aabb,
     augmentation: &Augmentation,
     first_augmented: usize,
     options: &RenderOptions,
 ) -> Vec<LightCodeCheck> {
-    let picked: Vec<&View> = match views.len() {
+    let picked: Vec<&FrameView> = match views.len() {
         0 => Vec::new(),
         n if n <= LIGHT_CHECK_VIEWS => views.iter().collect(),
         n => (0..LIGHT_CHECK_VIEWS)
@@ -397,7 +397,7 @@ fn light_code_checks(
 /// (augmentation map `k` has light code `first_augmented + k`).
 pub fn evaluate(
     field: &NeusField<f32>,
-    views: &[View],
+    views: &[FrameView],
     bounds: &Aabb,
     augmentation: &Augmentation,
     first_augmented: usize,
@@ -443,7 +443,7 @@ mod tests {
 
     /// A 64 × 48 view of one grey surface with Gaussian noise of standard deviation `sigma` per channel
     /// (Box–Muller), a black border of non-surface pixels around it.
-    fn noisy_view(sigma: f32) -> View {
+    fn noisy_view(sigma: f32) -> FrameView {
         let (w, h) = (64usize, 48usize);
         let mut rng = Pcg32::new(7, 1);
         let mut gaussian = || {
@@ -451,7 +451,7 @@ mod tests {
             (-2.0 * u.ln()).sqrt() * (std::f32::consts::TAU * v).cos()
         };
         let inside = |i: usize| (4..w - 4).contains(&(i % w)) && (4..h - 4).contains(&(i / w));
-        View {
+        FrameView {
             index: 0,
             camera: Pinhole::new(w as u32, h as u32, 50.0, 50.0, 32.0, 24.0),
             camera_to_model: Pose::IDENTITY,

@@ -19,7 +19,7 @@ use neuroom_field::{CodeSet, Codes, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
 use neuroom_identify::{DetectConfig, Network, NetworkDetector};
 use neuroom_locate::cloud::{FreeSpace, carve, surface_cloud};
-use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, View, colour_error};
+use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, SearchView, colour_error};
 use neuroom_locate::local_light::{LocalLightConfig, RoomLight};
 use neuroom_locate::localize::camera_correlation;
 use neuroom_locate::merge::merge_views;
@@ -430,7 +430,7 @@ pub fn locate_image(
     query: &QueryImage,
     image_name: &str,
     config: &LocateConfig,
-) -> anyhow::Result<(Arrangement, Located, View)> {
+) -> anyhow::Result<(Arrangement, Located, SearchView)> {
     let views = [(query.clone(), image_name.to_string())];
     let (arrangement, mut located, mut object_views) = locate_views(ctx, &views, config)?;
     let (Some(located), Some(view)) = (located.pop(), object_views.pop()) else {
@@ -447,9 +447,9 @@ pub fn locate_views(
     ctx: &LocateContext,
     views: &[(QueryImage, String)],
     config: &LocateConfig,
-) -> anyhow::Result<(Arrangement, Vec<Located>, Vec<View>)> {
+) -> anyhow::Result<(Arrangement, Vec<Located>, Vec<SearchView>)> {
     let (first, first_name) = views.first().context("no image to locate")?;
-    let (located, object_views): (Vec<Located>, Vec<View>) = views
+    let (located, object_views): (Vec<Located>, Vec<SearchView>) = views
         .iter()
         .map(|(query, name)| locate_view(ctx, query, name, config))
         .collect::<anyhow::Result<Vec<_>>>()?
@@ -497,7 +497,7 @@ fn locate_view(
     query: &QueryImage,
     image_name: &str,
     config: &LocateConfig,
-) -> anyhow::Result<(Located, View)> {
+) -> anyhow::Result<(Located, SearchView)> {
     let t0 = Instant::now();
     let sphere = query.sphere();
     let camera = localize(&ctx.scene, &ctx.database, &sphere, &config.localize)
@@ -587,7 +587,7 @@ fn object_view(
     sphere: &SphereImage,
     pose: &Pose,
     config: &LocateConfig,
-) -> View {
+) -> SearchView {
     let w = config.object_width;
     let (empty, empty_depth) = render_background(&ctx.scene, pose, w, &config.render);
     let small = sphere.downsample(w, w / 2);
@@ -622,7 +622,7 @@ fn object_view(
             }
         }
     }
-    View {
+    SearchView {
         query,
         empty,
         empty_depth,
@@ -633,7 +633,7 @@ fn object_view(
 
 /// The object regions of `view` by the detector `config` chooses: the network's (alone, or naming the
 /// residual detector's regions) when `ctx` holds one, else the residual detector's.
-fn detect_objects(ctx: &LocateContext, view: &View, config: &LocateConfig) -> Vec<Detection> {
+fn detect_objects(ctx: &LocateContext, view: &SearchView, config: &LocateConfig) -> Vec<Detection> {
     let Some(network) = &ctx.network else {
         return config.detector.detect(view);
     };
@@ -759,7 +759,7 @@ pub fn locate(
 pub fn write_search_view(
     dir: &Path,
     name: &str,
-    view: &View,
+    view: &SearchView,
     detections: &[Detection],
 ) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
@@ -889,7 +889,7 @@ pub struct SearchObjective {
 /// found camera ([`object_view`]).
 fn search_objective(
     ctx: &LocateContext,
-    view: &View,
+    view: &SearchView,
     located: &Located,
     truth: &Arrangement,
     config: &LocateConfig,
@@ -907,7 +907,7 @@ fn search_objective(
 /// from `camera`: no detections.
 fn judging_input<'a>(
     ctx: &'a LocateContext,
-    view: &'a View,
+    view: &'a SearchView,
     camera: Pose,
 ) -> SearchInput<'a, NeusField> {
     SearchInput {
@@ -945,7 +945,7 @@ fn placed_objects(ctx: &LocateContext, arrangement: &Arrangement) -> Vec<Found> 
 /// it moved the bookshelf 3–12 cm.
 pub fn keep_better_poses(
     ctx: &LocateContext,
-    view: &View,
+    view: &SearchView,
     camera: &Pose,
     initial: &Arrangement,
     solved: Arrangement,

@@ -87,7 +87,7 @@ impl ViewCamera {
 }
 
 /// A rendered view: colour (sRGB), depth (pinhole z-depth or panorama ray distance) and instance ids.
-pub struct View {
+pub struct RenderedView {
     /// Colour.
     pub rgb: RgbImage,
     /// Depth in metres, 0 where nothing was hit.
@@ -132,20 +132,20 @@ pub fn solved_scene(models: &Path, arrangement_path: &Path) -> anyhow::Result<So
 }
 
 /// Renders `scene` from `camera` (the panorama camera is the arrangement's).
-pub fn render_view(scene: &SolvedScene, camera: &ViewCamera) -> anyhow::Result<View> {
+pub fn render_view(scene: &SolvedScene, camera: &ViewCamera) -> anyhow::Result<RenderedView> {
     let (camera, pose) = camera.resolve(&scene.arrangement.camera_to_world)?;
     Ok(render_camera(scene, &camera, &pose))
 }
 
 /// Renders `scene` from a camera model at `camera_to_world`.
-pub fn render_camera(scene: &SolvedScene, camera: &Camera, camera_to_world: &Pose) -> View {
+pub fn render_camera(scene: &SolvedScene, camera: &Camera, camera_to_world: &Pose) -> RenderedView {
     let (rgb, depth, mask) = render_image(
         &scene.lit.scene,
         camera,
         camera_to_world,
         &RenderConfig::default(),
     );
-    View { rgb, depth, mask }
+    RenderedView { rgb, depth, mask }
 }
 
 /// Renders the models in `models` (a room's model folder) placed as the arrangement file says, under
@@ -154,13 +154,13 @@ pub fn render_arrangement(
     models: &Path,
     arrangement: &Path,
     camera: &ViewCamera,
-) -> anyhow::Result<View> {
+) -> anyhow::Result<RenderedView> {
     render_view(&solved_scene(models, arrangement)?, camera)
 }
 
 /// Writes a view: colour to `rgb`, and depth (16-bit millimetres) and instance mask where asked.
 pub fn write_view(
-    view: &View,
+    view: &RenderedView,
     rgb: &Path,
     depth: Option<&Path>,
     mask: Option<&Path>,
