@@ -548,7 +548,7 @@ fn refine<F: Field>(
         current = if config.reshade {
             relit_round(&view, config)
         } else {
-            view.align(view.rgb, &at, &config.fine)
+            view.no_worse(view.align(view.rgb, &at, &config.fine), &[view.rgb], config)
         };
     }
     current
@@ -572,6 +572,32 @@ impl Rendered<'_> {
         };
         align(&keyframe, self.query, start, config)
     }
+
+    /// `aligned`, or the keyframe's own pose when that correlates better with one of the keyframe's
+    /// colourings `rgbs` than `aligned` does: a round never leaves a camera worse than it found it (a
+    /// light unlike the captures' can pull the alignment off a pose the room agrees with).
+    fn no_worse(
+        &self,
+        aligned: Alignment,
+        rgbs: &[&RgbImage],
+        config: &LocalizeConfig,
+    ) -> Alignment {
+        let held = AlignConfig {
+            iterations: 0,
+            ..config.fine.clone()
+        };
+        let before = (rgbs.iter())
+            .map(|rgb| self.align(rgb, &self.at, &held).score)
+            .fold(f64::NEG_INFINITY, f64::max);
+        if before > aligned.score {
+            Alignment {
+                camera_to_world: self.at,
+                score: before,
+            }
+        } else {
+            aligned
+        }
+    }
 }
 
 /// One round against the keyframe as rendered and as re-shaded to the query's light. The re-shaded
@@ -587,7 +613,11 @@ fn relit_round(view: &Rendered, config: &LocalizeConfig) -> Alignment {
         &view.query.seen_depth(view.depth),
     );
     if shaded == *view.rgb {
-        return view.align(view.rgb, &view.at, &config.fine);
+        return view.no_worse(
+            view.align(view.rgb, &view.at, &config.fine),
+            &[view.rgb],
+            config,
+        );
     }
     let (plain, relit) = rayon::join(
         || view.align(view.rgb, &view.at, &config.fine),
@@ -605,10 +635,11 @@ fn relit_round(view: &Rendered, config: &LocalizeConfig) -> Alignment {
     } else {
         plain.camera_to_world
     };
-    Alignment {
+    let aligned = Alignment {
         camera_to_world: pose,
         score: relit.score.max(plain.score),
-    }
+    };
+    view.no_worse(aligned, &[view.rgb, &shaded], config)
 }
 
 /// Colour and ray depth of `scene` (the empty room: a scene without objects) seen from `camera_to_world`
