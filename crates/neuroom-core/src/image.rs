@@ -102,6 +102,12 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+/// An sRGB colour under per-channel gains of a light, applied in linear light (an empty room as a panorama's
+/// light shows it; composed training panoramas).
+pub fn relit(color: [f32; 3], gains: [f32; 3]) -> [f32; 3] {
+    std::array::from_fn(|c| linear_to_srgb((srgb_to_linear(color[c]) * gains[c]).min(1.0)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

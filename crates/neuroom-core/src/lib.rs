@@ -16,6 +16,7 @@ pub mod pose;
 pub mod ray;
 pub mod rotation6d;
 pub mod sh;
+pub mod surface;
 pub mod winding;
 
 pub use error::{FormatError, FormatResult};

@@ -8,10 +8,10 @@
 //! ```no_run
 //! use neuroom_export::mesh::{MeshDetail, scene_meshes};
 //! use neuroom_export::room_gltf::{ExportCamera, room_glb};
-//! let scene = neuroom_export::testing::tiny_scene();
+//! let scene = neuroom_testing::tiny_scene();
 //! let names = vec!["ball_1".to_string(), "ball_2".into(), "stool_3".into()];
 //! let meshes = scene_meshes(&scene, &names, &MeshDetail::default());
-//! let camera = ExportCamera::from_panorama(neuroom_export::testing::tiny_arrangement().camera_to_world);
+//! let camera = ExportCamera::from_panorama(neuroom_testing::tiny_arrangement().camera_to_world);
 //! std::fs::write("room.glb", room_glb(&meshes, &camera)).unwrap();
 //! ```
 
@@ -23,5 +23,4 @@ pub mod report;
 pub mod room_gltf;
 #[cfg(feature = "rerun")]
 pub mod rrd;
-pub mod testing;
 pub mod topdown;

@@ -301,8 +301,8 @@ fn write_code(field: &mut NeusField, row: u32, code: &[f32]) -> anyhow::Result<(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::tiny_scene;
     use glam::Vec3;
+    use neuroom_testing::tiny_scene;
 
     #[test]
     fn lit_scene_keeps_the_trained_rows_and_lights_instances_apart() {

@@ -6,9 +6,9 @@
 
 use glam::{Vec3, Vec3A};
 use neuroom_core::Pose;
+use neuroom_core::surface::{Grid, extract_surface};
 use neuroom_field::{Field, FieldOutput, NeusField, Query, Tape};
 use neuroom_render::{InstanceCodes, Scene, Tone};
-use neuroom_train::mesh_extract::{Grid, extract_surface};
 use rayon::prelude::*;
 
 /// Points per batch of field queries.
@@ -246,9 +246,26 @@ pub fn scene_meshes(
 }
 
 #[cfg(test)]
+/// The meshes of [`tiny_scene`](neuroom_testing::tiny_scene), objects named as [`tiny_arrangement`](neuroom_testing::tiny_arrangement) names them, extracted with cells of
+/// `object_cell_m` for the objects and `room_cell_m` for the room.
+pub(crate) fn tiny_meshes(object_cell_m: f32, room_cell_m: f32) -> SceneMeshes {
+    let names: Vec<String> = neuroom_testing::tiny_arrangement()
+        .objects
+        .iter()
+        .map(|o| o.name.clone())
+        .collect();
+    let detail = MeshDetail {
+        object_cell_m,
+        room_cell_m,
+        ..MeshDetail::default()
+    };
+    scene_meshes(&neuroom_testing::tiny_scene(), &names, &detail)
+}
+
+#[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::{BALL_HALF, tiny_scene};
+    use neuroom_testing::{BALL_HALF, tiny_scene};
 
     #[test]
     fn a_ball_field_gives_a_closed_ball_with_outward_unit_normals() {

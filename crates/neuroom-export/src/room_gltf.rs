@@ -144,7 +144,8 @@ pub fn room_glb(meshes: &SceneMeshes, camera: &ExportCamera) -> Vec<u8> {
 mod tests {
     use super::*;
     use crate::glb::split_glb;
-    use crate::testing::{tiny_arrangement, tiny_meshes};
+    use crate::mesh::tiny_meshes;
+    use neuroom_testing::tiny_arrangement;
 
     fn tiny_glb() -> (SceneMeshes, Vec<u8>) {
         let meshes = tiny_meshes(0.04, 0.15);

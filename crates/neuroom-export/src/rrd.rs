@@ -159,9 +159,10 @@ fn log_boxes(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::{tiny_arrangement, tiny_meshes};
+    use crate::mesh::tiny_meshes;
     use glam::DVec3;
     use neuroom_core::obb::OrientedBox;
+    use neuroom_testing::tiny_arrangement;
 
     fn boxes(offset: f64) -> Vec<MapBox> {
         tiny_arrangement()

@@ -6,7 +6,7 @@ use std::process::Command;
 
 use neuroom_export::mesh::{MeshDetail, scene_meshes};
 use neuroom_export::room_gltf::{ExportCamera, room_glb};
-use neuroom_export::testing::{tiny_arrangement, tiny_scene};
+use neuroom_testing::{tiny_arrangement, tiny_scene};
 
 #[test]
 #[ignore = "needs node and `npm install --prefix tools`"]

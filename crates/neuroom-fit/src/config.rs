@@ -1,13 +1,13 @@
 //! Settings of the holistic fit: sampling, schedule, learning rates, loss weights and ablation switches.
 
 use crate::relations::RelationRules;
-use crate::search::SearchConfig;
+use crate::search::PoseSearchConfig;
 use neuroom_render::RenderConfig;
 use serde::{Deserialize, Serialize};
 
 /// Weights of the losses (the paper: λ_pho = 1, λ_obs = 100, λ_phy = 1 for each physical term).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct LossWeights {
+pub struct FitLossWeights {
     /// Photometric (mean squared colour error over the sampled rays).
     pub photometric: f32,
     /// Observation (1 − cos of the viewing direction, per object).
@@ -22,7 +22,7 @@ pub struct LossWeights {
     pub alignment: f32,
 }
 
-impl Default for LossWeights {
+impl Default for FitLossWeights {
     fn default() -> Self {
         Self {
             photometric: 1.0,
@@ -99,12 +99,12 @@ pub struct FitConfig {
     /// Adam rate of light and appearance code rows.
     pub lr_codes: f32,
     /// Loss weights.
-    pub weights: LossWeights,
+    pub weights: FitLossWeights,
     /// Ablation switches.
     pub losses: LossSwitches,
     /// Render-and-compare search of each object's horizontal position and yaw before stage 1 (`None`:
     /// gradient descent only).
-    pub search: Option<SearchConfig>,
+    pub search: Option<PoseSearchConfig>,
     /// Adapt the tone adjusters during stage 1 as well, so that a change of lighting is explained by
     /// colour rather than by moving objects (on trained rooms lit differently from their captures the
     /// photometric gradient otherwise drags objects away from their true poses).
@@ -168,11 +168,11 @@ impl Default for FitConfig {
             lr_final_factor: 0.1,
             lr_tone: 1e-2,
             lr_codes: 1e-2,
-            weights: LossWeights::default(),
+            weights: FitLossWeights::default(),
             losses: LossSwitches::default(),
             adapt: AdaptSwitches::default(),
             tone_in_pose_stage: true,
-            search: Some(SearchConfig::default()),
+            search: Some(PoseSearchConfig::default()),
             yaw_only_upright: true,
             observation_tolerance_deg: 10.0,
             epsilon: 0.025,

@@ -50,10 +50,10 @@ pub mod surface;
 pub mod violation;
 
 pub use codes::FitField;
-pub use config::{AdaptSwitches, FitConfig, LossSwitches, LossWeights};
+pub use config::{AdaptSwitches, FitConfig, FitLossWeights, LossSwitches};
 pub use fit::{
     FitError, FitReport, FitResult, FitTimings, FittedObject, FittedObjectReport, Fitter,
     IterationLog, ObjectInit, Stage, fit, render_panorama,
 };
 pub use relations::{Hint, Relation, RelationRules, RoomBox};
-pub use search::SearchConfig;
+pub use search::PoseSearchConfig;

@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 
 /// The grid of the search.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SearchConfig {
+pub struct PoseSearchConfig {
     /// Spacing of the horizontal offsets in the first round (metres).
     pub step_m: f32,
     /// Offsets per side along each horizontal axis (2: a 5 × 5 grid).
@@ -41,7 +41,7 @@ pub struct SearchConfig {
     pub rounds: usize,
 }
 
-impl Default for SearchConfig {
+impl Default for PoseSearchConfig {
     fn default() -> Self {
         Self {
             step_m: 0.1,
@@ -170,7 +170,7 @@ pub fn search_poses<F: FitField>(
     camera: &Equirect,
     camera_to_world: &Pose,
     panorama: &RgbImage,
-    config: &SearchConfig,
+    config: &PoseSearchConfig,
     rng: &mut impl Rng,
 ) {
     for round in 0..config.rounds {

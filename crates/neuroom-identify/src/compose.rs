@@ -6,13 +6,13 @@
 //! of the nearest splatted object, or background.
 
 use neuroom_core::image::RgbImage;
+use neuroom_core::image::relit;
 use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
-use neuroom_locate::cloud::{ZBuffer, splat};
-use neuroom_locate::database::{Database, Entry};
-use neuroom_locate::evidence::relit;
-use neuroom_locate::objects::ObjectModel;
+use neuroom_panorama::ObjectModel;
+use neuroom_panorama::cloud::{ZBuffer, splat};
+use neuroom_panorama::database::{Database, DatabaseEntry};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
@@ -205,7 +205,7 @@ fn glow_field(config: &ComposeConfig, w: usize, h: usize, rng: &mut Pcg64) -> Ve
 /// the object with what lies behind.
 #[allow(clippy::too_many_arguments)]
 fn draw_objects(
-    entry: &Entry,
+    entry: &DatabaseEntry,
     models: &[ObjectModel],
     placed: &[(usize, Pose)],
     config: &ComposeConfig,

@@ -1,4 +1,5 @@
-//! The network as locate's [`Detector`]: the view is area-averaged to the network's size, labelled,
+//! The network as a detector of object regions: a panorama and the empty room at its camera are
+//! area-averaged to the network's size, labelled,
 //! and each model's confident pixels split into connected regions (columns wrap around); regions large
 //! enough become detections that name their model, mapped back to the view's pixels. Pixels below the
 //! confidence threshold count as background, so absent objects are not invented.
@@ -7,8 +8,10 @@
 //! region keeps its pixels and is named by the models the network sees confidently inside it (one
 //! detection per such model), or stays unnamed where the network sees none.
 
-use neuroom_locate::evidence::{Detection, Detector, SearchView, components};
-use neuroom_locate::plane::downsample_rgb;
+use neuroom_core::image::RgbImage;
+use neuroom_panorama::Detection;
+use neuroom_panorama::plane::downsample_rgb;
+use neuroom_panorama::region::components;
 use serde::{Deserialize, Serialize};
 
 use crate::infer::{Prediction, predict};
@@ -45,16 +48,35 @@ pub struct NetworkDetector<'a> {
     pub config: DetectConfig,
 }
 
+/// What the network looks at: a panorama and the empty room at its camera, of one size.
+#[derive(Clone, Copy, Debug)]
+pub struct DetectorView<'a> {
+    /// The panorama.
+    pub query: &'a RgbImage,
+    /// The empty room rendered at the panorama's camera, relit to its light.
+    pub empty: &'a RgbImage,
+}
+
+impl DetectorView<'_> {
+    fn width(&self) -> usize {
+        self.query.width as usize
+    }
+
+    fn height(&self) -> usize {
+        self.query.height as usize
+    }
+}
+
 impl NetworkDetector<'_> {
     /// The network's labels of `view` at its working size; `None` for an empty view.
-    fn predict(&self, view: &SearchView) -> Option<Prediction> {
+    fn predict(&self, view: DetectorView) -> Option<Prediction> {
         let net = &self.network.config;
         let (lw, lh) = (net.width, net.height());
         if view.width() == 0 || view.height() == 0 {
             return None;
         }
-        let query = downsample_rgb(&view.query, lw, lh);
-        let empty = downsample_rgb(&view.empty, lw, lh);
+        let query = downsample_rgb(view.query, lw, lh);
+        let empty = downsample_rgb(view.empty, lw, lh);
         predict(net, &self.network.weights, &[(&query, &empty)]).pop()
     }
 
@@ -71,7 +93,7 @@ impl NetworkDetector<'_> {
     /// sees inside them: per region, one detection per model that holds at least `min_cells` confident
     /// cells and [`DetectConfig::region_share`] of the region's confident object cells; the region
     /// unnamed where it sees none.
-    pub fn name_regions(&self, view: &SearchView, regions: Vec<Detection>) -> Vec<Detection> {
+    pub fn name_regions(&self, view: DetectorView, regions: Vec<Detection>) -> Vec<Detection> {
         let Some(prediction) = self.predict(view) else {
             return regions;
         };
@@ -113,10 +135,10 @@ impl NetworkDetector<'_> {
         }
         votes
     }
-}
 
-impl Detector for NetworkDetector<'_> {
-    fn detect(&self, view: &SearchView) -> Vec<Detection> {
+    /// The network's confident regions of `view`, each naming its model (index into the models the
+    /// network was trained on).
+    pub fn detect(&self, view: DetectorView) -> Vec<Detection> {
         let net = &self.network.config;
         let (lw, lh) = (net.width, net.height());
         let Some(prediction) = self.predict(view) else {

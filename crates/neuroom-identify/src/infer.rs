@@ -4,7 +4,7 @@ use burn::tensor::activation::softmax;
 use burn::tensor::{Device, Tensor, TensorData};
 use neuroom_core::image::RgbImage;
 
-use crate::net::{INPUT_CHANNELS, NetConfig, Params, Weights, forward};
+use crate::net::{INPUT_CHANNELS, NetConfig, NetworkParams, Weights, forward};
 
 /// The network input of one panorama and its empty room (same size): channels first, sRGB centred
 /// on 0.
@@ -54,7 +54,7 @@ pub fn predict(
         return Vec::new();
     }
     let device = Device::flex();
-    let params = Params::new(config, weights, &device, false);
+    let params = NetworkParams::new(config, weights, &device, false);
     let probabilities = softmax(
         forward(config, &params, input_tensor(config, pairs, &device)),
         1,

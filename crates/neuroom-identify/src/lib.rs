@@ -9,7 +9,7 @@
 //!   the panorama and the empty room at the same camera; [`infer`] runs it.
 //! - [`train`]: weighted pixel-wise cross-entropy, Adam, a time budget, checkpoints to resume from.
 //! - [`store`]: the network and the checkpoint on disk (safetensors, written atomically).
-//! - [`detect`]: the network as locate's `Detector`, with a confidence threshold.
+//! - [`detect`]: the network as a detector of named object regions, with a confidence threshold.
 
 pub mod compose;
 pub mod detect;
@@ -20,7 +20,7 @@ pub mod store;
 pub mod train;
 
 pub use compose::{ComposeConfig, RoomSource, Sample, compose};
-pub use detect::{DetectConfig, NetworkDetector};
+pub use detect::{DetectConfig, DetectorView, NetworkDetector};
 pub use net::NetConfig;
 pub use store::{CHECKPOINT_FILE, NETWORK_FILE, Network};
 pub use train::{TrainReport, TrainSettings, train};

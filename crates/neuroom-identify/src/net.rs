@@ -172,12 +172,12 @@ impl Weights {
 }
 
 /// The parameters as tensors on a device (with gradients tracked where the device has autodiff).
-pub struct Params {
+pub struct NetworkParams {
     /// Per layer: weight `[out, in, k, k]` and bias `[out]`.
     pub layers: Vec<(Tensor<4>, Tensor<1>)>,
 }
 
-impl Params {
+impl NetworkParams {
     /// Tensors of `weights` on `device`; with `track`, they require gradients.
     pub fn new(config: &NetConfig, weights: &Weights, device: &Device, track: bool) -> Self {
         let layers = config
@@ -200,7 +200,7 @@ impl Params {
 }
 
 /// Logits `[batch, classes, height, width]` of `input` `[batch, 6, height, width]`.
-pub fn forward(config: &NetConfig, params: &Params, input: Tensor<4>) -> Tensor<4> {
+pub fn forward(config: &NetConfig, params: &NetworkParams, input: Tensor<4>) -> Tensor<4> {
     let specs = config.layers();
     let layer = |k: usize, x: Tensor<4>| conv(&specs[k], &params.layers[k], x);
     let e1 = relu(layer(1, relu(layer(0, input))));

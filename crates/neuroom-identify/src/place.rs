@@ -6,9 +6,9 @@ use glam::{DVec3, Vec3};
 use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
-use neuroom_locate::database::{Entry, floor_below};
-use neuroom_locate::objects::{ObjectModel, Placement};
-use neuroom_locate::sphere::direction;
+use neuroom_panorama::database::{DatabaseEntry, floor_below};
+use neuroom_panorama::sphere::direction;
+use neuroom_panorama::{ObjectModel, Support};
 use rand::Rng;
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
@@ -53,7 +53,7 @@ impl Default for PlaceConfig {
 /// floor and wall models first, then the models that stand on them.
 pub fn place_objects<F: Field>(
     room: RoomSource<F>,
-    entry: &Entry,
+    entry: &DatabaseEntry,
     models: &[ObjectModel],
     config: &PlaceConfig,
     rng: &mut Pcg64,
@@ -64,12 +64,12 @@ pub fn place_objects<F: Field>(
     let order = models
         .iter()
         .enumerate()
-        .filter(|(_, m)| !matches!(m.placement, Placement::On(_)))
+        .filter(|(_, m)| !matches!(m.support, Support::On(_)))
         .chain(
             models
                 .iter()
                 .enumerate()
-                .filter(|(_, m)| matches!(m.placement, Placement::On(_))),
+                .filter(|(_, m)| matches!(m.support, Support::On(_))),
         );
     let mut placed: Vec<(usize, Pose)> = Vec::new();
     for (m, model) in order {
@@ -97,7 +97,7 @@ pub fn place_objects<F: Field>(
 #[allow(clippy::too_many_arguments)]
 fn random_pose<F: Field>(
     room: RoomSource<F>,
-    entry: &Entry,
+    entry: &DatabaseEntry,
     floor: f64,
     models: &[ObjectModel],
     placed: &[(usize, Pose)],
@@ -108,16 +108,16 @@ fn random_pose<F: Field>(
     let model = &models[m];
     let half = model.half.as_dvec3();
     let yaw = rng.random_range(0.0..std::f64::consts::TAU);
-    match model.placement {
-        Placement::Floor => {
+    match model.support {
+        Support::Floor => {
             let (lo, hi) = floor_extent(room, config.floor_margin);
             let x = rng.random_range(lo.x..=hi.x);
             let y = rng.random_range(lo.y..=hi.y);
             let t = DVec3::new(x, y, floor + half.z);
             Some(Pose::from_yaw_translation(yaw, t))
         }
-        Placement::Wall => wall_pose(room, entry, floor, half, config, rng),
-        Placement::On(base) => {
+        Support::Wall => wall_pose(room, entry, floor, half, config, rng),
+        Support::On(base) => {
             let supports: Vec<&Pose> = placed
                 .iter()
                 .filter(|(k, _)| *k == base)
@@ -151,7 +151,7 @@ fn floor_extent<F>(room: RoomSource<F>, margin: f64) -> (DVec3, DVec3) {
 /// horizon, facing into the room, its centre at a random height.
 fn wall_pose<F: Field>(
     room: RoomSource<F>,
-    entry: &Entry,
+    entry: &DatabaseEntry,
     floor: f64,
     half: DVec3,
     config: &PlaceConfig,
@@ -223,7 +223,12 @@ fn collides(
 }
 
 /// Whether the box leaves the camera its clearance (horizontally, in the box's frame).
-fn clear_of_camera(entry: &Entry, model: &ObjectModel, pose: &Pose, config: &PlaceConfig) -> bool {
+fn clear_of_camera(
+    entry: &DatabaseEntry,
+    model: &ObjectModel,
+    pose: &Pose,
+    config: &PlaceConfig,
+) -> bool {
     let local = pose.inverse().transform_point(entry.position.as_dvec3());
     let half = model.half.as_dvec3();
     let outside = DVec3::new(

@@ -14,7 +14,7 @@ use safetensors::tensor::{Dtype, TensorView};
 use serde::de::DeserializeOwned;
 
 use crate::net::{NetConfig, Weights};
-use crate::train::{Adam, TrainLog, TrainReport};
+use crate::train::{NetworkAdam, TrainLog, TrainReport};
 
 /// File name of the network inside a model folder.
 pub const NETWORK_FILE: &str = "identify.safetensors";
@@ -47,7 +47,7 @@ pub struct Checkpoint {
     /// The weights so far.
     pub weights: Weights,
     /// The optimiser's state.
-    pub adam: Adam,
+    pub adam: NetworkAdam,
     /// Steps, seconds and losses so far.
     pub log: TrainLog,
 }
@@ -103,7 +103,7 @@ pub fn write_checkpoint(
     path: &Path,
     config: &NetConfig,
     weights: &Weights,
-    adam: &Adam,
+    adam: &NetworkAdam,
     log: &TrainLog,
 ) -> Result<(), FormatError> {
     let meta = HashMap::from([
@@ -135,7 +135,7 @@ pub fn read_checkpoint(path: &Path, config: &NetConfig) -> Result<Checkpoint, Fo
         .ok_or_else(|| FormatError::file(path, "metadata adam_steps missing or not a number"))?;
     Ok(Checkpoint {
         weights: read_weights(path, &bytes, config, "")?,
-        adam: Adam {
+        adam: NetworkAdam {
             m: read_weights(path, &bytes, config, "adam.m.")?,
             v: read_weights(path, &bytes, config, "adam.v.")?,
             steps,

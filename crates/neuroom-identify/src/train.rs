@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::IdentifyError;
 use crate::compose::{BACKGROUND, Sample};
 use crate::infer::{input_tensor, predict};
-use crate::net::{NetConfig, Params, Weights, forward};
+use crate::net::{NetConfig, NetworkParams, Weights, forward};
 use crate::store::{Checkpoint, Network, read_checkpoint, write_checkpoint};
 
 /// How long and how the network trains.
@@ -55,7 +55,7 @@ impl Default for TrainSettings {
 
 /// Adam's moments and step count.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Adam {
+pub struct NetworkAdam {
     /// First moments.
     pub m: Weights,
     /// Second moments.
@@ -68,7 +68,7 @@ const BETA1: f32 = 0.9;
 const BETA2: f32 = 0.999;
 const EPSILON: f32 = 1e-8;
 
-impl Adam {
+impl NetworkAdam {
     /// Zero moments for `weights`.
     pub fn new(weights: &Weights) -> Self {
         Self {
@@ -169,7 +169,7 @@ pub fn train(
     } else {
         let weights = Weights::init(config, settings.seed);
         Checkpoint {
-            adam: Adam::new(&weights),
+            adam: NetworkAdam::new(&weights),
             weights,
             log: TrainLog::default(),
         }
@@ -253,7 +253,7 @@ pub fn loss_and_gradients(
     settings: &TrainSettings,
     device: &Device,
 ) -> (f32, Weights) {
-    let params = Params::new(config, weights, device, true);
+    let params = NetworkParams::new(config, weights, device, true);
     let pairs: Vec<_> = batch.iter().map(|s| (&s.query, &s.empty)).collect();
     let logits = forward(config, &params, input_tensor(config, &pairs, device));
     let (target, pixel_weights, total) = targets(config, batch, settings.object_weight, device);

@@ -7,9 +7,8 @@ use neuroom_field::{AnalyticColor, AnalyticField, CodeSet, Field};
 use neuroom_identify::compose::BACKGROUND;
 use neuroom_identify::place::PlaceConfig;
 use neuroom_identify::{ComposeConfig, RoomSource, compose};
-use neuroom_locate::cloud::surface_cloud;
-use neuroom_locate::objects::{ObjectModel, Placement};
-use neuroom_locate::{Database, DatabaseConfig, build_database};
+use neuroom_panorama::cloud::surface_cloud;
+use neuroom_panorama::{Database, DatabaseConfig, ObjectModel, Support, build_database};
 use neuroom_render::{Background, InstanceCodes, Model, Scene, Tone};
 
 const ROOM_CENTRE: Vec3 = Vec3::new(2.0, 1.5, 1.3);
@@ -56,14 +55,14 @@ const COLOURS: [Vec3; 3] = [
 /// A table on the floor (two instances), a panel on a wall, a box on the table.
 fn models() -> Vec<ObjectModel> {
     let specs = [
-        (Vec3::new(0.4, 0.3, 0.35), Placement::Floor, vec![1, 2]),
-        (Vec3::new(0.03, 0.4, 0.3), Placement::Wall, vec![3]),
-        (Vec3::new(0.12, 0.12, 0.12), Placement::On(0), vec![4]),
+        (Vec3::new(0.4, 0.3, 0.35), Support::Floor, vec![1, 2]),
+        (Vec3::new(0.03, 0.4, 0.3), Support::Wall, vec![3]),
+        (Vec3::new(0.12, 0.12, 0.12), Support::On(0), vec![4]),
     ];
     specs
         .into_iter()
         .zip(COLOURS)
-        .map(|((half, placement, ids), colour)| {
+        .map(|((half, support, ids), colour)| {
             let field = AnalyticField::Cuboid {
                 centre: Vec3::ZERO,
                 half,
@@ -74,8 +73,8 @@ fn models() -> Vec<ObjectModel> {
                 half,
                 coarse: surface_cloud(&field, half, 0.03, CodeSet::default()),
                 fine: surface_cloud(&field, half, 0.02, CodeSet::default()),
-                against_wall: placement == Placement::Wall,
-                placement,
+                against_wall: support == Support::Wall,
+                support,
             }
         })
         .collect()
@@ -144,9 +143,9 @@ fn placed_objects_follow_the_room_rules() {
         for (i, (m, b)) in s.boxes.iter().enumerate() {
             placed[*m] += 1;
             let bottom = b.center().z - 0.5 * b.size.z;
-            match models[*m].placement {
-                Placement::Floor => assert!(bottom.abs() < 1e-3, "floor object at {bottom}"),
-                Placement::Wall => {
+            match models[*m].support {
+                Support::Floor => assert!(bottom.abs() < 1e-3, "floor object at {bottom}"),
+                Support::Wall => {
                     let back = b
                         .pose
                         .transform_point(DVec3::new(-0.5 * b.size.x, 0.0, 0.0));
@@ -154,7 +153,7 @@ fn placed_objects_follow_the_room_rules() {
                     field.sdf(&[back.as_vec3()], &mut sdf);
                     assert!(sdf[0].abs() < 0.01, "wall object's back {} m off", sdf[0]);
                 }
-                Placement::On(base) => {
+                Support::On(base) => {
                     let on = s.boxes.iter().any(|(k, other)| {
                         let top = other.center().z + 0.5 * other.size.z;
                         *k == base

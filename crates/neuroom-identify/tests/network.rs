@@ -5,11 +5,12 @@ use neuroom_core::image::RgbImage;
 use neuroom_identify::compose::BACKGROUND;
 use neuroom_identify::net::Weights;
 use neuroom_identify::store::{read_checkpoint, write_checkpoint};
-use neuroom_identify::train::{Adam, TrainLog};
+use neuroom_identify::train::{NetworkAdam, TrainLog};
 use neuroom_identify::{
-    DetectConfig, NETWORK_FILE, NetConfig, Network, NetworkDetector, Sample, TrainSettings, train,
+    DetectConfig, DetectorView, NETWORK_FILE, NetConfig, Network, NetworkDetector, Sample,
+    TrainSettings, train,
 };
-use neuroom_locate::evidence::{Detection, Detector, SearchView};
+use neuroom_panorama::Detection;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -126,18 +127,16 @@ fn training_lowers_the_loss_and_then_segments_the_squares() {
             .map(|i| image.data[(i / (2 * W) / 2) * W + (i % (2 * W)) / 2])
             .collect(),
     };
-    let view = SearchView {
-        query: upsample(&sample.query),
-        empty: upsample(&sample.empty),
-        empty_depth: vec![2.0; 4 * W * H],
-        seen: None,
-        light: None,
+    let (query, empty) = (upsample(&sample.query), upsample(&sample.empty));
+    let view = DetectorView {
+        query: &query,
+        empty: &empty,
     };
     let detector = NetworkDetector {
         network: &network,
         config: DetectConfig::default(),
     };
-    let found = detector.detect(&view);
+    let found = detector.detect(view);
     let present: Vec<usize> = (0..2)
         .filter(|m| sample.labels.contains(&(*m as u8 + 1)))
         .collect();
@@ -175,7 +174,7 @@ fn training_lowers_the_loss_and_then_segments_the_squares() {
             .collect(),
         model: None,
     };
-    let named = detector.name_regions(&view, vec![all, bare.clone()]);
+    let named = detector.name_regions(view, vec![all, bare.clone()]);
     let mut models: Vec<Option<usize>> = named.iter().map(|d| d.model).collect();
     models.sort();
     let mut expected: Vec<Option<usize>> = present.iter().map(|m| Some(*m)).collect();
@@ -245,7 +244,7 @@ fn the_network_and_its_checkpoint_round_trip() {
     assert_eq!(Network::read(&path).unwrap(), network);
 
     let config = config();
-    let adam = Adam {
+    let adam = NetworkAdam {
         m: Weights::init(&config, 4),
         v: Weights::init(&config, 5),
         steps: 17,

@@ -12,11 +12,11 @@
 use glam::{DMat3, DVec3};
 use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
+use neuroom_panorama::plane::Plane;
+use neuroom_panorama::sphere::{direction, project_jacobian};
 use serde::{Deserialize, Serialize};
 
 use crate::features::{FeatureMap, row_weights};
-use crate::plane::Plane;
-use crate::sphere::{direction, project_jacobian};
 use crate::sphere_image::SphereImage;
 
 /// Settings of one alignment.
@@ -217,8 +217,12 @@ fn seen_from(mut points: Vec<Point>, q: &QueryMap, pose: &Pose) -> Vec<Point> {
     if q.seen.is_some() {
         let rt = pose.rotation.transpose();
         points.retain(|pt| {
-            crate::sphere::project(rt * (pt.world - pose.translation), q.width(), q.height())
-                .is_some_and(|pix| q.sees(pix.x, pix.y))
+            neuroom_panorama::sphere::project(
+                rt * (pt.world - pose.translation),
+                q.width(),
+                q.height(),
+            )
+            .is_some_and(|pix| q.sees(pix.x, pix.y))
         });
     }
     points
@@ -396,8 +400,8 @@ fn correlation(points: &[Point], q: &QueryMap, pose: &Pose) -> f64 {
     let (mut ab, mut aa, mut bb) = (0.0f64, 0.0f64, 0.0f64);
     for pt in points {
         let p = rt * (pt.world - pose.translation);
-        let seen =
-            crate::sphere::project(p, q.width(), q.height()).filter(|pix| q.sees(pix.x, pix.y));
+        let seen = neuroom_panorama::sphere::project(p, q.width(), q.height())
+            .filter(|pix| q.sees(pix.x, pix.y));
         let Some(pix) = seen else {
             aa += pt.weight * pt.feature.iter().map(|a| (*a as f64).powi(2)).sum::<f64>();
             continue;

@@ -10,7 +10,7 @@
 //! their weighted sums, blurred by the same kernels, from the cells around them: exactly the smoothing
 //! of the grid whose cells no longer hold them.
 
-use crate::plane::{Plane, gaussian_taps};
+use neuroom_panorama::plane::{Plane, gaussian_taps};
 
 /// Cells per standard deviation of the narrow Gaussian: enough that binning pixels into cells
 /// changes the smoothing little.

@@ -5,12 +5,14 @@
 //! [`ResidualDetector`] is this classical one, and a learned detector plugs in through the same trait
 //! (it may also name the model of each detection).
 
-use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
+use neuroom_core::image::{RgbImage, relit, srgb_to_linear};
+use neuroom_panorama::Detection;
+use neuroom_panorama::region::components;
+use neuroom_panorama::sphere::neighbours;
 use serde::{Deserialize, Serialize};
 
 use crate::local_light::RoomLight;
 use crate::shading::panorama_normals;
-use crate::sphere::neighbours;
 
 /// The input panorama and the empty room, both at the working resolution, at the found camera.
 #[derive(Clone, Debug)]
@@ -45,15 +47,6 @@ impl SearchView {
     pub fn sees(&self, p: usize) -> bool {
         self.seen.as_ref().is_none_or(|s| s[p])
     }
-}
-
-/// A region of the panorama where an object is seen.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Detection {
-    /// Linear pixel indices at the working resolution.
-    pub pixels: Vec<u32>,
-    /// The model the detector recognises there, when it knows (index into the model list searched).
-    pub model: Option<usize>,
 }
 
 /// Finds object regions in a view.
@@ -155,12 +148,6 @@ pub fn room_gains_of(query: &RgbImage, empty: &RgbImage, depth: &[f32]) -> [f32;
     })
 }
 
-/// An sRGB colour under per-channel gains of a light, applied in linear light (the empty room as the
-/// query's light shows it; composed training panoramas).
-pub fn relit(color: [f32; 3], gains: [f32; 3]) -> [f32; 3] {
-    std::array::from_fn(|c| linear_to_srgb((srgb_to_linear(color[c]) * gains[c]).min(1.0)))
-}
-
 /// The empty room's colour per pixel as the query's light shows it under one gain per channel
 /// ([`room_gains`], [`relit`]).
 pub fn relit_room(view: &SearchView) -> Vec<[f32; 3]> {
@@ -205,52 +192,10 @@ pub fn dilate(mask: &[bool], w: usize, h: usize) -> Vec<bool> {
         .collect()
 }
 
-/// 4-connected components of the set pixels (columns wrap around), as pixel lists.
-pub fn components(mask: &[bool], w: usize, h: usize) -> Vec<Vec<u32>> {
-    let mut seen = vec![false; w * h];
-    let mut out = Vec::new();
-    for start in 0..w * h {
-        if !mask[start] || seen[start] {
-            continue;
-        }
-        let mut stack = vec![start];
-        seen[start] = true;
-        let mut pixels = Vec::new();
-        while let Some(i) = stack.pop() {
-            pixels.push(i as u32);
-            for j in neighbours(i, w, h) {
-                if mask[j] && !seen[j] {
-                    seen[j] = true;
-                    stack.push(j);
-                }
-            }
-        }
-        out.push(pixels);
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::ops::Range;
-
-    #[test]
-    fn components_wrap_around_the_seam() {
-        let (w, h) = (8, 3);
-        let mut mask = vec![false; w * h];
-        for i in [8, 15, 4 + 16] {
-            mask[i] = true;
-        }
-        let mut c = components(&mask, w, h);
-        c.sort_by_key(|p| p.len());
-        assert_eq!(c.len(), 2);
-        assert_eq!(
-            c[1].len(),
-            2,
-            "columns 0 and 7 of row 1 touch across the seam"
-        );
-    }
 
     /// A `w × h` image of one grey level.
     fn grey(w: usize, h: usize, level: f32) -> RgbImage {

@@ -3,8 +3,7 @@
 //! gradient removes, while edges of the room's geometry and texture stay.
 
 use neuroom_core::image::RgbImage;
-
-use crate::plane::{Plane, log_luminance};
+use neuroom_panorama::plane::{Plane, log_luminance};
 
 /// Feature channels of one panorama at one resolution (all planes share its size).
 #[derive(Clone, Debug, PartialEq)]

@@ -10,10 +10,9 @@
 use glam::{DMat3, DVec3};
 use nalgebra::{Matrix3, SymmetricEigen};
 use neuroom_core::image::RgbImage;
+use neuroom_panorama::plane::{Plane, downsample_rgb};
+use neuroom_panorama::sphere::direction;
 use serde::{Deserialize, Serialize};
-
-use crate::plane::{Plane, downsample_rgb};
-use crate::sphere::direction;
 
 /// Settings of [`estimate_up`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

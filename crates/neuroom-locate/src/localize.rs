@@ -22,12 +22,12 @@ use neuroom_core::camera_effects::rotate_panorama;
 use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
+use neuroom_panorama::database::Database;
 use neuroom_render::{RenderConfig, Scene, render_image};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{AlignConfig, Alignment, Keyframe, align};
-use crate::database::Database;
 use crate::features::FeatureMap;
 use crate::level::{LevelConfig, estimate_up, leveling};
 use crate::shading::match_shading;
@@ -160,7 +160,7 @@ impl Default for LocalizeConfig {
                 sigmas: vec![2.0, 1.0],
                 ..AlignConfig::default()
             },
-            render: crate::database::low_resolution_render(),
+            render: neuroom_panorama::database::low_resolution_render(),
             fallbacks: default_fallbacks(),
             evidence: CameraEvidence::default(),
             level: default_level(),

@@ -6,8 +6,9 @@
 //! than its model has instances.
 
 use neuroom_core::obb::OrientedBox;
+use neuroom_panorama::ObjectModel;
 
-use crate::objects::{Found, ObjectModel, SearchConfig, stands_inside};
+use crate::objects::{Found, SearchConfig, stands_inside};
 
 /// Two sightings of one model are one object when their centres are closer than this fraction of the
 /// model's largest horizontal extent…
@@ -51,10 +52,10 @@ pub fn merge_views(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloud::Cloud;
-    use crate::objects::Placement;
     use glam::{DVec3, Vec3};
     use neuroom_core::pose::Pose;
+    use neuroom_panorama::Support;
+    use neuroom_panorama::cloud::Cloud;
 
     fn model(ids: Vec<u16>, half: Vec3) -> ObjectModel {
         ObjectModel {
@@ -62,7 +63,7 @@ mod tests {
             half,
             coarse: Cloud::default(),
             fine: Cloud::default(),
-            placement: Placement::Floor,
+            support: Support::Floor,
             against_wall: false,
         }
     }

@@ -3,7 +3,7 @@
 //! Hypotheses per model follow where the model may stand: on the floor (a grid of positions whose box
 //! centre projects into a detection × a ring of headings), against a wall (the empty room's surface
 //! behind a detected pixel, facing along its normal), or on top of an object already placed. Each is
-//! projected ([`crate::cloud::splat`]) and scored, pixel by pixel, by how much better its colours (under
+//! projected ([`neuroom_panorama::cloud::splat`]) and scored, pixel by pixel, by how much better its colours (under
 //! a fitted tone: a per-channel gain and a directional shading, for the light changed) explain the
 //! panorama than the empty room's colours do. The best hypothesis over all models is taken, refined
 //! by coordinate descent and put into the scene: its pixels then count with its own colour error and
@@ -19,53 +19,19 @@
 use std::collections::HashMap;
 
 use glam::{DMat3, DVec3, Vec2, Vec3};
+use neuroom_core::image::relit;
 use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
+use neuroom_panorama::cloud::{Cloud, Silhouette, ZBuffer, splat};
+use neuroom_panorama::sphere::{direction, neighbours};
+use neuroom_panorama::{Detection, ObjectModel, Support};
 use neuroom_render::Scene;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::cloud::{Cloud, Silhouette, ZBuffer, splat};
-use crate::evidence::{Detection, SearchView, colour_error, dilate, relit, relit_room, room_gains};
+use crate::evidence::{SearchView, colour_error, dilate, relit_room, room_gains};
 use crate::local_light::under_gain;
-use crate::sphere::{direction, neighbours};
-
-/// Where a model may stand.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub enum Placement {
-    /// Upright on the floor.
-    Floor,
-    /// Upright with its back (−x face) against a wall.
-    Wall,
-    /// Upright on top of an instance of another model (index into the model list).
-    On(usize),
-}
-
-/// One searchable model.
-#[derive(Clone, Debug)]
-pub struct ObjectModel {
-    /// Instance ids (several for identical objects).
-    pub ids: Vec<u16>,
-    /// Half extents of its box (metres).
-    pub half: Vec3,
-    /// Coarse surface cloud, for the search.
-    pub coarse: Cloud,
-    /// Finer surface cloud, for refinement.
-    pub fine: Cloud,
-    /// Where it may stand.
-    pub placement: Placement,
-    /// Whether its back (−x face) stands against a wall: hypotheses are discounted by the back's
-    /// distance from the room's surface.
-    pub against_wall: bool,
-}
-
-impl ObjectModel {
-    /// Its box at `pose`.
-    pub fn box_at(&self, pose: &Pose) -> OrientedBox {
-        OrientedBox::new(*pose, 2.0 * self.half.as_dvec3())
-    }
-}
 
 /// Search settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -306,7 +272,7 @@ fn support_inset(model: &ObjectModel) -> f32 {
 /// rather than leaving it in the air.
 fn without_orphans(models: &[ObjectModel], mut found: Vec<Found>) -> Vec<Found> {
     let held_up = |f: &Found, found: &[Found]| {
-        let Placement::On(supporter) = models[f.model].placement else {
+        let Support::On(supporter) = models[f.model].support else {
             return true;
         };
         let pose = f.pose();
@@ -348,7 +314,7 @@ struct Target<'a, F> {
     /// detection).
     region: Vec<Option<u32>>,
     tolerance: f32,
-    /// The empty room's colour per pixel under the query's global gain ([`crate::evidence::relit`]).
+    /// The empty room's colour per pixel under the query's global gain ([`relit`]).
     room_color: Vec<[f32; 3]>,
     /// Colour error of the empty room per pixel (mean absolute difference from `room_color`, as
     /// [`crate::evidence::residual`]; a constant where it has no surface).
@@ -581,10 +547,10 @@ fn pruned_hypotheses<F: Field>(
 ) -> Vec<Hypothesis> {
     let mut pool = Vec::new();
     for (m, model) in models.iter().enumerate() {
-        let hyps = match model.placement {
-            Placement::Floor => floor_hypotheses(target, m, model, floor, config),
-            Placement::Wall => wall_hypotheses(target, m, model),
-            Placement::On(supporter) => found
+        let hyps = match model.support {
+            Support::Floor => floor_hypotheses(target, m, model, floor, config),
+            Support::Wall => wall_hypotheses(target, m, model),
+            Support::On(supporter) => found
                 .iter()
                 .filter(|f| f.model == supporter)
                 .flat_map(|f| support_grid(m, model, &models[supporter], &f.pose(), config))
@@ -699,7 +665,7 @@ fn relit_models<F>(input: &SearchInput<F>) -> Vec<ObjectModel> {
 fn floor_height<F: Field>(empty: &Scene<F>, camera: &Pose) -> f32 {
     let field = &empty.models[empty.background.model].field;
     let start = camera.translation.as_vec3();
-    crate::database::floor_below(field, start, empty.background.bounds_min.z)
+    neuroom_panorama::database::floor_below(field, start, empty.background.bounds_min.z)
         .unwrap_or(empty.background.bounds_min.z)
 }
 
@@ -727,7 +693,7 @@ fn axis_pixels<'t, F>(
         .into_iter()
         .filter_map(move |f| {
             let point = centre + DVec3::Z * (f * half);
-            crate::sphere::project(to_camera.transform_point(point), w, h)
+            neuroom_panorama::sphere::project(to_camera.transform_point(point), w, h)
                 .map(|pix| (pix.y as usize).min(h - 1) * w + pix.x as usize % w)
         })
 }
@@ -1445,7 +1411,7 @@ fn revisit_first<F: Field>(
             .map(|pose| Hypothesis { model: m, pose })
             .collect();
         let mut own: Vec<Hypothesis> = pool.iter().filter(|h| h.model == m).cloned().collect();
-        if let Placement::On(supporter) = model.placement {
+        if let Support::On(supporter) = model.support {
             for (j, f) in found.iter().enumerate() {
                 if j != k && f.model == supporter {
                     let at = f.pose();
@@ -1498,7 +1464,7 @@ fn revisit_first<F: Field>(
 /// only one coordinate at a time, so an object left a little turned and shifted can stay there. A wall
 /// object keeps facing out of its wall.
 fn revisit_starts(model: &ObjectModel, current: &Pose) -> Vec<Pose> {
-    let turns: &[f64] = if model.placement == Placement::Wall {
+    let turns: &[f64] = if model.support == Support::Wall {
         &[0.0]
     } else {
         &[0.0, -REVISIT_SMALL_TURN, REVISIT_SMALL_TURN, 0.5, 1.0, 1.5]
@@ -1656,7 +1622,7 @@ fn support_hypotheses<F: Field>(
     let base = &models[supporter];
     let mut out = Vec::new();
     for (m, model) in models.iter().enumerate() {
-        if model.placement != Placement::On(supporter) {
+        if model.support != Support::On(supporter) {
             continue;
         }
         let hyps = support_grid(m, model, base, pose, config);
@@ -1724,9 +1690,9 @@ fn descend<F: Field>(
         |pose: &Pose| hypothesis_score(target, placed, model, coarse, pose, &mut buf, config);
     let mut pose = *start;
     let mut best = eval(&pose);
-    let vertical = model.placement == Placement::Wall;
+    let vertical = model.support == Support::Wall;
     // An object that stands on another slides on its supporter's top, never off it into the air.
-    let supported = matches!(model.placement, Placement::On(_)) && placed.supports(model, start);
+    let supported = matches!(model.support, Support::On(_)) && placed.supports(model, start);
     for &(step, turn_deg) in steps {
         let turn = turn_deg.to_radians();
         loop {
@@ -1787,8 +1753,8 @@ fn shifted(pose: &Pose, d: DVec3) -> Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloud::surface_cloud;
     use neuroom_field::AnalyticField;
+    use neuroom_panorama::cloud::surface_cloud;
 
     fn model(half: Vec3) -> ObjectModel {
         ObjectModel {
@@ -1796,7 +1762,7 @@ mod tests {
             half,
             coarse: Cloud::default(),
             fine: Cloud::default(),
-            placement: Placement::Floor,
+            support: Support::Floor,
             against_wall: false,
         }
     }
@@ -1976,7 +1942,7 @@ mod tests {
     fn taking_a_supporter_out_takes_out_what_stood_on_it() {
         let table = model(Vec3::new(0.3, 0.3, 0.25));
         let lamp = ObjectModel {
-            placement: Placement::On(0),
+            support: Support::On(0),
             ..model(Vec3::new(0.1, 0.1, 0.15))
         };
         let models = [table, lamp];
@@ -2034,7 +2000,7 @@ mod tests {
         let mut turns = yaws(&standing);
         turns.sort_by(f64::total_cmp);
         assert_eq!(turns, vec![0.0, 18.0, 90.0, 180.0, 270.0, 342.0]);
-        standing.placement = Placement::Wall;
+        standing.support = Support::Wall;
         assert_eq!(yaws(&standing), vec![0.0]);
     }
 

@@ -6,10 +6,10 @@
 use glam::{DMat3, DVec2, DVec3};
 use neuroom_core::camera::{CameraModel, Pinhole};
 use neuroom_core::image::RgbImage;
+use neuroom_panorama::plane::{Plane, add_colour, downsample_rgb, for_each_target};
+use neuroom_panorama::sphere::direction;
 
 use crate::features::FeatureMap;
-use crate::plane::{Plane, add_colour, downsample_rgb, for_each_target};
-use crate::sphere::direction;
 
 /// Rotation from the OpenGL pinhole frame (looks along −z, +y up, +x right) to the panorama frame of
 /// the same camera (+x forward, +y left, +z up). A photo's `camera_to_world` is its panorama frame's
@@ -197,7 +197,7 @@ pub fn photo_from_panorama(panorama: &RgbImage, camera: &Pinhole, heading: f64) 
     let data = (0..w * h)
         .map(|i| {
             let ray = camera.direction(DVec2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5));
-            let at = crate::sphere::project(turn * ray, pw, ph).unwrap_or(DVec2::ZERO);
+            let at = neuroom_panorama::sphere::project(turn * ray, pw, ph).unwrap_or(DVec2::ZERO);
             bilinear(panorama, at, true)
         })
         .collect();
@@ -247,7 +247,7 @@ fn bilinear(image: &RgbImage, pixel: DVec2, wrap_columns: bool) -> [f32; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::project;
+    use neuroom_panorama::sphere::project;
 
     fn ramp_photo(w: usize, h: usize) -> RgbImage {
         RgbImage {

@@ -2,10 +2,10 @@
 //! columns shifted, so the correlation of (normalised) feature maps over every column shift scores all
 //! headings of a database camera at once.
 
+use neuroom_panorama::plane::Plane;
 use rayon::prelude::*;
 
 use crate::features::{FeatureMap, row_weights};
-use crate::plane::Plane;
 
 /// A database panorama and a heading that match the query.
 #[derive(Clone, Copy, Debug, PartialEq)]

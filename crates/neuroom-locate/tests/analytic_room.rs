@@ -6,16 +6,15 @@ use neuroom_core::camera::{Equirect, Pinhole};
 use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_field::{AnalyticColor, AnalyticField, CodeSet};
-use neuroom_locate::cloud::surface_cloud;
-use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, SearchView};
+use neuroom_locate::evidence::{Detector, ResidualDetector, SearchView};
 use neuroom_locate::objects::{
-    Found, ObjectModel, Placement, SearchConfig, SearchInput, arrangement_error, find_objects,
-    pose_score,
+    Found, SearchConfig, SearchInput, arrangement_error, find_objects, pose_score,
 };
 use neuroom_locate::{
-    Database, DatabaseConfig, LocalizeConfig, PANORAMA_FROM_PINHOLE, SphereImage, build_database,
-    localize, render_background,
+    LocalizeConfig, PANORAMA_FROM_PINHOLE, SphereImage, localize, render_background,
 };
+use neuroom_panorama::cloud::surface_cloud;
+use neuroom_panorama::{Database, DatabaseConfig, Detection, ObjectModel, Support, build_database};
 use neuroom_render::{Background, InstanceCodes, Model, RenderConfig, Scene, SceneObject, Tone};
 
 const ROOM_CENTRE: Vec3 = Vec3::new(2.0, 1.5, 1.3);
@@ -166,7 +165,7 @@ fn relit_panorama(scene: &Scene<AnalyticField>, camera: &Pose, width: u32) -> Rg
         data: (0..w * h)
             .map(|i| {
                 let (x, y) = ((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
-                let ray = neuroom_locate::sphere::direction(x, y, w, h);
+                let ray = neuroom_panorama::sphere::direction(x, y, w, h);
                 let world = camera.transform_point(ray * depth.data[i] as f64);
                 let lon = std::f64::consts::PI * (1.0 - 2.0 * x / w as f64);
                 let side = 0.7 + 0.3 * (0.5 + 0.5 * (lon - 1.0).cos());
@@ -275,7 +274,7 @@ fn object_models() -> Vec<ObjectModel> {
                 half,
                 coarse: surface_cloud(&field, half, 0.04, CodeSet::default()),
                 fine: surface_cloud(&field, half, 0.025, CodeSet::default()),
-                placement: Placement::Floor,
+                support: Support::Floor,
                 against_wall: false,
             }
         })

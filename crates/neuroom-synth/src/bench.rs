@@ -15,12 +15,12 @@ use crate::illumination::{load_hdris, test_lighting};
 use crate::preset::Preset;
 use crate::render::{LightRig, PlacedCamera, Quality, render};
 use crate::sampler::{Item, RoomSpace, YawBox};
-use crate::scene::{Instance, Scene};
+use crate::scene::{Instance, TracedScene};
 use crate::shell::build_shell;
 
 /// The measured throughput.
 #[derive(Clone, Debug, Serialize)]
-pub struct BenchReport {
+pub struct SynthBenchReport {
     /// Panorama width (height is half).
     pub width: u32,
     /// Colour samples per pixel.
@@ -44,7 +44,11 @@ pub struct BenchReport {
 }
 
 /// Renders one `width`-wide panorama of a furnished `bedroom` (seed `seed`) and times it.
-pub fn bench_panorama(width: u32, quality: Quality, seed: u64) -> Result<BenchReport, SynthError> {
+pub fn bench_panorama(
+    width: u32,
+    quality: Quality,
+    seed: u64,
+) -> Result<SynthBenchReport, SynthError> {
     let preset = Preset::named("bedroom").expect("built-in preset");
     let shell = build_shell(DVec3::from_array(preset.room_size), seed);
     let models = build_models(&preset, seed, None)?;
@@ -86,7 +90,7 @@ pub fn bench_panorama(width: u32, quality: Quality, seed: u64) -> Result<BenchRe
             p.index as u16 + 1,
         )
     }));
-    let scene = Scene::new(instances);
+    let scene = TracedScene::new(instances);
     let hdris = load_hdris(&[])?;
     let lighting = test_lighting(0, shell.size, &hdris, &mut rng);
     let rig = LightRig::new(
@@ -110,7 +114,7 @@ pub fn bench_panorama(width: u32, quality: Quality, seed: u64) -> Result<BenchRe
     );
     let seconds = start.elapsed().as_secs_f64();
     let samples = width as u64 * (width / 2) as u64 * quality.spp as u64;
-    Ok(BenchReport {
+    Ok(SynthBenchReport {
         width,
         spp: quality.spp,
         ao_rays: quality.ao_rays,

@@ -6,14 +6,14 @@ use glam::Vec3;
 
 /// Axis-aligned bounding box.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Aabb {
+pub struct AxisBox {
     /// Smallest corner.
     pub min: Vec3,
     /// Largest corner.
     pub max: Vec3,
 }
 
-impl Aabb {
+impl AxisBox {
     /// The empty box (grows to anything).
     pub const EMPTY: Self = Self {
         min: Vec3::splat(f32::INFINITY),
@@ -79,7 +79,7 @@ impl Aabb {
 /// interior node (`count == 0`) has its two children at `first` and `first + 1`.
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    bounds: Aabb,
+    bounds: AxisBox,
     first: u32,
     count: u32,
 }
@@ -99,13 +99,13 @@ const TRAVERSAL_COST: f32 = 1.0;
 
 impl Bvh {
     /// Builds the tree over `boxes` (one per primitive).
-    pub fn build(boxes: &[Aabb]) -> Self {
-        let centres: Vec<Vec3> = boxes.iter().map(Aabb::centre).collect();
+    pub fn build(boxes: &[AxisBox]) -> Self {
+        let centres: Vec<Vec3> = boxes.iter().map(AxisBox::centre).collect();
         let mut bvh = Self {
             nodes: Vec::with_capacity(2 * boxes.len().max(1)),
             order: (0..boxes.len() as u32).collect(),
         };
-        let bounds = boxes.iter().fold(Aabb::EMPTY, |b, x| b.union(*x));
+        let bounds = boxes.iter().fold(AxisBox::EMPTY, |b, x| b.union(*x));
         bvh.nodes.push(Node {
             bounds,
             first: 0,
@@ -116,11 +116,11 @@ impl Bvh {
     }
 
     /// Bounds of everything in the tree.
-    pub fn bounds(&self) -> Aabb {
+    pub fn bounds(&self) -> AxisBox {
         self.nodes[0].bounds
     }
 
-    fn subdivide(&mut self, node: usize, boxes: &[Aabb], centres: &[Vec3]) {
+    fn subdivide(&mut self, node: usize, boxes: &[AxisBox], centres: &[Vec3]) {
         let Node { first, count, .. } = self.nodes[node];
         let (first, count) = (first as usize, count as usize);
         if count <= 1 {
@@ -146,7 +146,7 @@ impl Bvh {
         for (start, len) in [(first, mid), (first + mid, count - mid)] {
             let bounds = self.order[start..start + len]
                 .iter()
-                .fold(Aabb::EMPTY, |b, &i| b.union(boxes[i as usize]));
+                .fold(AxisBox::EMPTY, |b, &i| b.union(boxes[i as usize]));
             self.nodes.push(Node {
                 bounds,
                 first: start as u32,
@@ -237,10 +237,10 @@ impl Bvh {
 }
 
 /// Finds the cheapest binned split over the three axes: (axis, split position, SAH cost).
-fn best_split(range: &[u32], boxes: &[Aabb], centres: &[Vec3]) -> Option<(usize, f32, f32)> {
+fn best_split(range: &[u32], boxes: &[AxisBox], centres: &[Vec3]) -> Option<(usize, f32, f32)> {
     let cb = range
         .iter()
-        .fold(Aabb::EMPTY, |b, &i| b.with_point(centres[i as usize]));
+        .fold(AxisBox::EMPTY, |b, &i| b.with_point(centres[i as usize]));
     let mut best: Option<(usize, f32, f32)> = None;
     for axis in [0usize, 1, 2] {
         let (lo, hi) = (cb.min[axis], cb.max[axis]);
@@ -248,20 +248,20 @@ fn best_split(range: &[u32], boxes: &[Aabb], centres: &[Vec3]) -> Option<(usize,
             continue;
         }
         let scale = BINS as f32 / (hi - lo);
-        let mut bins = [(Aabb::EMPTY, 0u32); BINS];
+        let mut bins = [(AxisBox::EMPTY, 0u32); BINS];
         for &i in range {
             let b = (((centres[i as usize][axis] - lo) * scale) as usize).min(BINS - 1);
             bins[b].0 = bins[b].0.union(boxes[i as usize]);
             bins[b].1 += 1;
         }
         let mut right_cost = [0.0f32; BINS];
-        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
+        let (mut acc, mut n) = (AxisBox::EMPTY, 0u32);
         for b in (1..BINS).rev() {
             acc = acc.union(bins[b].0);
             n += bins[b].1;
             right_cost[b] = acc.half_area() * n as f32;
         }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
+        let (mut acc, mut n) = (AxisBox::EMPTY, 0u32);
         for b in 0..BINS - 1 {
             acc = acc.union(bins[b].0);
             n += bins[b].1;
@@ -309,9 +309,9 @@ mod tests {
                 )
             })
             .collect();
-        let boxes: Vec<Aabb> = spheres
+        let boxes: Vec<AxisBox> = spheres
             .iter()
-            .map(|(c, r)| Aabb {
+            .map(|(c, r)| AxisBox {
                 min: *c - Vec3::splat(*r),
                 max: *c + Vec3::splat(*r),
             })

@@ -8,7 +8,7 @@ use glam::{Affine3A, DVec2, DVec3, Vec3};
 
 use crate::material::Material;
 use crate::mesh::Mesh;
-use crate::scene::Model;
+use crate::scene::TracedModel;
 
 /// Where an object may stand.
 #[derive(Clone, Debug, PartialEq)]
@@ -71,7 +71,7 @@ pub struct Furniture {
     /// Category written to room.json.
     pub category: String,
     /// Geometry and materials in the canonical frame.
-    pub model: Arc<Model>,
+    pub model: Arc<TracedModel>,
     /// Full extents of the bounding box [sx, sy, sz] in metres.
     pub size: DVec3,
     /// Where it may stand.
@@ -94,7 +94,7 @@ impl Furniture {
         let b = mesh.bounds();
         mesh.transform(&Affine3A::from_translation(-b.centre()));
         let size = b.size().as_dvec3();
-        let model = Arc::new(Model::new(name, mesh, materials));
+        let model = Arc::new(TracedModel::new(name, mesh, materials));
         Self {
             name: name.into(),
             category: category.into(),

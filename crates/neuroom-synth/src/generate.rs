@@ -27,7 +27,7 @@ use crate::ply::write_ply;
 use crate::preset::Preset;
 use crate::render::{LightRig, PlacedCamera, RenderedFrame, render};
 use crate::sampler::{Item, Placed, RoomSpace, YawBox};
-use crate::scene::{Instance, Scene};
+use crate::scene::{Instance, TracedScene};
 use crate::sh3d::Sh3dCatalog;
 use crate::shell::{Shell, build_shell};
 use crate::views::{room_views, sphere_band};
@@ -56,7 +56,7 @@ pub enum SynthError {
 
 /// Progress of a long stage: `done` of `total` items.
 #[derive(Clone, Copy, Debug)]
-pub struct Progress<'a> {
+pub struct StageProgress<'a> {
     /// Stage name (`background`, `object:<name>`, `panoramas`, …).
     pub stage: &'a str,
     /// Items finished.
@@ -87,7 +87,7 @@ pub struct Summary {
 }
 
 /// One writing stage; returns how many views or panoramas it wrote.
-type Stage = fn(&mut Context, &mut dyn FnMut(Progress)) -> Result<usize, SynthError>;
+type Stage = fn(&mut Context, &mut dyn FnMut(StageProgress)) -> Result<usize, SynthError>;
 
 /// Everything generation shares between stages.
 struct Context<'a> {
@@ -111,7 +111,7 @@ pub fn generate(
     seed: u64,
     furniture: Option<&Path>,
     hdris: &[PathBuf],
-    progress: &mut dyn FnMut(Progress),
+    progress: &mut dyn FnMut(StageProgress),
 ) -> Result<Summary, SynthError> {
     preset.validate().map_err(SynthError::Preset)?;
     let mut seconds = BTreeMap::new();
@@ -254,7 +254,7 @@ fn capture_with_lighting(dir: &Path, frames: Vec<Frame>, lighting: &Lighting) ->
 /// The background capture: the empty room from inside, masks all 0.
 fn write_background(
     ctx: &mut Context,
-    progress: &mut dyn FnMut(Progress),
+    progress: &mut dyn FnMut(StageProgress),
 ) -> Result<usize, SynthError> {
     let cfg = &ctx.preset.background;
     let dir = ctx.out.join("captures/background");
@@ -265,7 +265,7 @@ fn write_background(
         Some(ctx.shell.bounce),
         ROOM_AO_DISTANCE,
     );
-    let scene = Scene::new(vec![Instance::new(
+    let scene = TracedScene::new(vec![Instance::new(
         ctx.shell.model.clone(),
         Pose::IDENTITY,
         0,
@@ -289,7 +289,7 @@ fn write_background(
         let rendered = render(&scene, &rig, &view, cfg.quality, ctx.seed, 1 + i as u64);
         ctx.rays += rendered.rays;
         frames.push(write_view(&dir, i, &rendered, camera, pose, false)?);
-        progress(Progress {
+        progress(StageProgress {
             stage: "background",
             done: i + 1,
             total: cfg.views as usize,
@@ -311,7 +311,7 @@ fn capture_id(ctx: &Context, model: usize) -> u16 {
 /// One capture per distinct model: the object alone at the origin of its canonical frame.
 fn write_object_captures(
     ctx: &mut Context,
-    progress: &mut dyn FnMut(Progress),
+    progress: &mut dyn FnMut(StageProgress),
 ) -> Result<usize, SynthError> {
     let cfg = &ctx.preset.object_capture;
     let lighting = object_lighting(&ctx.hdris[0].name);
@@ -327,7 +327,7 @@ fn write_object_captures(
     let mut total = 0;
     for (m, f) in ctx.models.iter().enumerate() {
         let dir = ctx.out.join("captures").join(&f.name);
-        let scene = Scene::new(vec![Instance::new(
+        let scene = TracedScene::new(vec![Instance::new(
             f.model.clone(),
             Pose::IDENTITY,
             capture_id(ctx, m),
@@ -349,7 +349,7 @@ fn write_object_captures(
             let rendered = render(&scene, &rig, &view, cfg.quality, ctx.seed, stream);
             ctx.rays += rendered.rays;
             frames.push(write_view(&dir, i, &rendered, camera, pose, true)?);
-            progress(Progress {
+            progress(StageProgress {
                 stage: &stage,
                 done: i + 1,
                 total: cfg.views as usize,
@@ -424,7 +424,7 @@ fn sample_arrangement(
 /// The test panoramas: arrangements × lightings, with ground-truth arrangement, depth and mask.
 fn write_panoramas(
     ctx: &mut Context,
-    progress: &mut dyn FnMut(Progress),
+    progress: &mut dyn FnMut(StageProgress),
 ) -> Result<usize, SynthError> {
     let cfg = ctx.preset.panoramas.clone();
     let dir = ctx.out.join("panoramas");
@@ -445,7 +445,7 @@ fn write_panoramas(
                 p.index as u16 + 1,
             ));
         }
-        let scene = Scene::new(instances);
+        let scene = TracedScene::new(instances);
         for (j, lighting) in lightings.iter().enumerate() {
             let hdri = ctx
                 .hdris
@@ -472,7 +472,7 @@ fn write_panoramas(
                 dir.join(format!("{stem}.json")),
                 &arrangement(ctx, &stem, &placed, camera_pose, lighting, a, j),
             )?;
-            progress(Progress {
+            progress(StageProgress {
                 stage: "panoramas",
                 done: (a * cfg.lightings) as usize + j + 1,
                 total,
@@ -542,7 +542,7 @@ fn relations(f: &Furniture, on: Option<&str>) -> Vec<String> {
 /// room.json, the ground-truth meshes and `meta/generation.json` (the config and provenance).
 fn write_room_files(
     ctx: &mut Context,
-    _progress: &mut dyn FnMut(Progress),
+    _progress: &mut dyn FnMut(StageProgress),
 ) -> Result<usize, SynthError> {
     let objects: Vec<RoomObject> = ctx
         .preset

@@ -24,6 +24,6 @@ pub mod shell;
 pub mod texture;
 pub mod views;
 
-pub use bench::{BenchReport, bench_panorama};
-pub use generate::{Progress, Summary, SynthError, generate};
+pub use bench::{SynthBenchReport, bench_panorama};
+pub use generate::{StageProgress, Summary, SynthError, generate};
 pub use preset::{PRESET_NAMES, Preset};

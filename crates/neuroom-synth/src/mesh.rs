@@ -6,7 +6,7 @@
 
 use glam::{Affine3A, Vec2, Vec3};
 
-use crate::bvh::Aabb;
+use crate::bvh::AxisBox;
 
 /// An indexed triangle mesh. All vertex arrays have the same length; `materials[i]` indexes the
 /// material list of the model the mesh belongs to.
@@ -76,10 +76,10 @@ impl Mesh {
     }
 
     /// The axis-aligned bounds of all vertices.
-    pub fn bounds(&self) -> Aabb {
+    pub fn bounds(&self) -> AxisBox {
         self.positions
             .iter()
-            .fold(Aabb::EMPTY, |b, p| b.with_point(*p))
+            .fold(AxisBox::EMPTY, |b, p| b.with_point(*p))
     }
 
     /// Adds a planar quad `corner + s·edge_u + t·edge_v`, s, t ∈ [0, 1], facing `edge_u × edge_v`.

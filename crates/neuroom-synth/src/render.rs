@@ -13,7 +13,7 @@ use rand_pcg::Pcg32;
 use rayon::prelude::*;
 
 use crate::lighting::{Environment, Light, Lighting};
-use crate::scene::{Scene, Surface};
+use crate::scene::{Surface, TracedScene};
 
 /// A light prepared for sampling.
 #[derive(Clone, Copy, Debug)]
@@ -182,7 +182,7 @@ struct Pixel {
 
 /// Renders one view. `stream` distinguishes views of one run so their noise differs.
 pub fn render(
-    scene: &Scene,
+    scene: &TracedScene,
     rig: &LightRig,
     view: &PlacedCamera,
     quality: Quality,
@@ -229,7 +229,7 @@ fn pixel_rng(seed: u64, stream: u64, u: u32, v: u32) -> Pcg32 {
 
 #[allow(clippy::too_many_arguments)]
 fn render_pixel(
-    scene: &Scene,
+    scene: &TracedScene,
     rig: &LightRig,
     view: &PlacedCamera,
     q: Quality,
@@ -334,7 +334,7 @@ const OCCLUDABLE: f32 = 0.7;
 /// Outgoing radiance towards `wo` at a surface, and the number of rays traced for it.
 #[allow(clippy::too_many_arguments)]
 fn shade(
-    scene: &Scene,
+    scene: &TracedScene,
     rig: &LightRig,
     s: &Surface,
     wo: Vec3,
@@ -398,7 +398,7 @@ fn shade(
 /// Fraction of `count` cosine-weighted rays around `n` that travel `distance` without a hit
 /// (1 when `count` is 0); ray k takes elevation stratum `strata.index + k` of `strata.count`.
 fn occlusion(
-    scene: &Scene,
+    scene: &TracedScene,
     p: Vec3,
     n: Vec3,
     distance: f32,

@@ -1,13 +1,13 @@
 //! The exact ray tracer: models (a mesh, its materials and a triangle BVH) instanced with rigid
 //! poses under a top-level BVH. Hits carry the distance, the instance, the triangle and its
-//! barycentrics; [`Scene::surface`] turns a hit into position, normals, UV and material.
+//! barycentrics; [`TracedScene::surface`] turns a hit into position, normals, UV and material.
 
 use std::sync::Arc;
 
 use glam::{Mat3, Vec2, Vec3};
 use neuroom_core::Pose;
 
-use crate::bvh::{Aabb, Bvh};
+use crate::bvh::{AxisBox, Bvh};
 use crate::material::Material;
 use crate::mesh::Mesh;
 
@@ -48,7 +48,7 @@ impl Tri {
 
 /// A renderable object: a mesh in its own frame, its materials and a BVH over its triangles.
 #[derive(Debug)]
-pub struct Model {
+pub struct TracedModel {
     /// Name (catalog kind or OBJ model).
     pub name: String,
     /// The geometry.
@@ -59,14 +59,14 @@ pub struct Model {
     bvh: Bvh,
 }
 
-impl Model {
+impl TracedModel {
     /// Builds the triangle BVH.
     pub fn new(name: impl Into<String>, mesh: Mesh, materials: Vec<Material>) -> Self {
-        let boxes: Vec<Aabb> = mesh
+        let boxes: Vec<AxisBox> = mesh
             .triangles
             .iter()
             .map(|t| {
-                t.iter().fold(Aabb::EMPTY, |b, &i| {
+                t.iter().fold(AxisBox::EMPTY, |b, &i| {
                     b.with_point(mesh.positions[i as usize])
                 })
             })
@@ -94,7 +94,7 @@ impl Model {
     }
 
     /// Bounds of the geometry in the model frame.
-    pub fn bounds(&self) -> Aabb {
+    pub fn bounds(&self) -> AxisBox {
         self.mesh.bounds()
     }
 
@@ -121,7 +121,7 @@ impl Model {
 #[derive(Clone, Debug)]
 pub struct Instance {
     /// The shared model.
-    pub model: Arc<Model>,
+    pub model: Arc<TracedModel>,
     /// Object-to-world pose.
     pub pose: Pose,
     /// Instance-mask value (object id), 0 for the static room.
@@ -132,7 +132,7 @@ pub struct Instance {
 
 impl Instance {
     /// Places a model.
-    pub fn new(model: Arc<Model>, pose: Pose, id: u16) -> Self {
+    pub fn new(model: Arc<TracedModel>, pose: Pose, id: u16) -> Self {
         Self {
             model,
             rotation: pose.rotation_f32(),
@@ -142,9 +142,9 @@ impl Instance {
         }
     }
 
-    fn world_bounds(&self) -> Aabb {
+    fn world_bounds(&self) -> AxisBox {
         let b = self.model.bounds();
-        b.corners().iter().fold(Aabb::EMPTY, |acc, c| {
+        b.corners().iter().fold(AxisBox::EMPTY, |acc, c| {
             acc.with_point(self.rotation * *c + self.translation)
         })
     }
@@ -182,15 +182,15 @@ pub struct Surface<'a> {
 
 /// Instances under a top-level BVH.
 #[derive(Debug)]
-pub struct Scene {
+pub struct TracedScene {
     instances: Vec<Instance>,
     tlas: Bvh,
 }
 
-impl Scene {
+impl TracedScene {
     /// Builds the top-level BVH over the instances' world boxes.
     pub fn new(instances: Vec<Instance>) -> Self {
-        let boxes: Vec<Aabb> = instances.iter().map(Instance::world_bounds).collect();
+        let boxes: Vec<AxisBox> = instances.iter().map(Instance::world_bounds).collect();
         Self {
             tlas: Bvh::build(&boxes),
             instances,
@@ -288,10 +288,10 @@ mod tests {
     use super::*;
     use crate::texture::Texture;
 
-    fn cube_model() -> Arc<Model> {
+    fn cube_model() -> Arc<TracedModel> {
         let mut m = Mesh::default();
         m.add_box(Vec3::splat(-0.5), Vec3::splat(0.5), 0);
-        Arc::new(Model::new(
+        Arc::new(TracedModel::new(
             "cube",
             m,
             vec![Material::diffuse("grey", Texture::solid(Vec3::splat(0.5)))],
@@ -305,7 +305,7 @@ mod tests {
             std::f64::consts::FRAC_PI_4,
             glam::DVec3::new(3.0, 0.0, 0.0),
         );
-        let scene = Scene::new(vec![Instance::new(cube.clone(), pose, 7)]);
+        let scene = TracedScene::new(vec![Instance::new(cube.clone(), pose, 7)]);
         let (o, d) = (Vec3::ZERO, Vec3::X);
         let hit = scene.intersect(o, d, f32::INFINITY).unwrap();
         // A 45°-rotated unit cube presents its edge at 3 − √2/2.
@@ -337,7 +337,7 @@ mod tests {
                 )
             })
             .collect();
-        let scene = Scene::new(instances);
+        let scene = TracedScene::new(instances);
         let hit = scene
             .intersect(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, f32::INFINITY)
             .unwrap();

@@ -43,7 +43,7 @@ impl FileSource for ZipSource {
 
 /// One catalog entry.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Entry {
+pub struct CatalogEntry {
     /// Which source (archive) holds it.
     source: usize,
     /// Catalog id, e.g. `Blend Swap CC-0#bed1`.
@@ -68,7 +68,7 @@ pub struct Entry {
 pub struct Sh3dCatalog {
     sources: Vec<(String, Box<dyn FileSource + Send + Sync>)>,
     /// All usable entries in file order.
-    pub entries: Vec<Entry>,
+    pub entries: Vec<CatalogEntry>,
 }
 
 impl std::fmt::Debug for Sh3dCatalog {
@@ -125,7 +125,7 @@ impl Sh3dCatalog {
     }
 
     /// Entries that fit a procedural kind, by name and tags.
-    pub fn matches(&self, kind: Kind) -> Vec<&Entry> {
+    pub fn matches(&self, kind: Kind) -> Vec<&CatalogEntry> {
         self.entries
             .iter()
             .filter(|e| !e.door_or_window && fits(kind, e))
@@ -151,7 +151,7 @@ impl Sh3dCatalog {
     }
 
     /// Loads one entry as furniture in the canonical frame.
-    pub fn load(&self, e: &Entry, kind: Kind, name: &str) -> Result<Furniture, String> {
+    pub fn load(&self, e: &CatalogEntry, kind: Kind, name: &str) -> Result<Furniture, String> {
         let (pack, source) = &self.sources[e.source];
         let mut obj = load_obj(source.as_ref(), &e.model)?;
         if let Some(r) = e.rotation {
@@ -179,7 +179,7 @@ impl Sh3dCatalog {
 }
 
 /// Whether an entry's name or tags fit a kind.
-fn fits(kind: Kind, e: &Entry) -> bool {
+fn fits(kind: Kind, e: &CatalogEntry) -> bool {
     let text = format!("{} {}", e.name.to_lowercase(), e.tags);
     let has = |w: &str| text.contains(w);
     let height = e.size_cm[2];
@@ -279,7 +279,7 @@ fn unescape(s: &str) -> String {
 }
 
 /// Collects numbered entries (`name#7`, `model#7`, …) of one catalog.
-fn parse_entries(source: usize, props: &HashMap<String, String>) -> Vec<Entry> {
+fn parse_entries(source: usize, props: &HashMap<String, String>) -> Vec<CatalogEntry> {
     let mut indices: Vec<u32> = props
         .keys()
         .filter_map(|k| k.strip_prefix("model#")?.parse().ok())
@@ -297,7 +297,7 @@ fn parse_entries(source: usize, props: &HashMap<String, String>) -> Vec<Entry> {
                     .collect();
                 <[f32; 9]>::try_from(v).ok()
             });
-            Some(Entry {
+            Some(CatalogEntry {
                 source,
                 id: get("id").cloned().unwrap_or_else(|| format!("#{i}")),
                 name: get("name")?.clone(),

@@ -11,7 +11,7 @@ use rand_pcg::Pcg64;
 use crate::material::Material;
 use crate::mesh::Mesh;
 use crate::render::RoomBounce;
-use crate::scene::Model;
+use crate::scene::TracedModel;
 use crate::texture::{Pattern, Texture};
 
 /// An axis-aligned floor rectangle (world x, y) where no object may stand.
@@ -29,7 +29,7 @@ pub struct Shell {
     /// Inner size [W, D, H] in metres.
     pub size: DVec3,
     /// Geometry (instance id 0).
-    pub model: Arc<Model>,
+    pub model: Arc<TracedModel>,
     /// Surface area and mean albedo, for the one-bounce ambient estimate.
     pub bounce: RoomBounce,
     /// Floor areas to keep free (in front of the door).
@@ -103,7 +103,7 @@ pub fn build_shell(size: DVec3, seed: u64) -> Shell {
     let bounce = room_bounce(s, &materials, accent_wall);
     Shell {
         size,
-        model: Arc::new(Model::new("room", mesh, materials)),
+        model: Arc::new(TracedModel::new("room", mesh, materials)),
         bounce,
         keep_out,
         door: ("y0".into(), door_along as f64),

@@ -3,9 +3,9 @@
 //! `cargo run --release -p neuroom-train --example model_chamfer -- MODEL_DIR TRUTH.ply [OUT.ply]`.
 
 use neuroom_core::mesh::{read_ply, write_ply};
+use neuroom_core::surface::chamfer;
 use neuroom_train::dataset::Aabb;
 use neuroom_train::eval::extract_mesh;
-use neuroom_train::mesh_extract::chamfer;
 use neuroom_train::room::{CHAMFER_SAMPLES, MESH_CELLS};
 use std::path::Path;
 

@@ -5,13 +5,13 @@
 use crate::augment::Augmentation;
 use crate::config::{BudgetClock, TrainConfig};
 use crate::eval::{LightCodeCheck, evaluate, noise_psnr_ceiling};
-use crate::mesh_extract::Chamfer;
 use crate::progress::Progress;
 use crate::room::{
     ModelSpec, TrainError, load_model_data, model_specs, truth_chamfer, with_threads,
 };
 use crate::trainer::{ModelKind, StepProfile, Trainer};
 use neuroom_core::formats::read_room;
+use neuroom_core::surface::Chamfer;
 use serde::Serialize;
 use std::path::Path;
 use std::time::Instant;

@@ -5,15 +5,15 @@
 //! volume rendering (rays without a crossing render nothing: opacity 0). Figures:
 //! - PSNR (sRGB, over black) on the model's pixels: the object's pixels, or every valid background pixel;
 //! - median absolute error of the rendered distance (`depth / opacity`) where the depth is known;
-//! - Chamfer distance between the extracted mesh ([`crate::mesh_extract`]) and the ground truth;
+//! - Chamfer distance between the extracted mesh ([`neuroom_core::surface`]) and the ground truth;
 //! - the light-code check: held-out views re-lit by an augmentation map, rendered with that map's code and
 //!   with code 0, PSNR of each against the re-lit images.
 
 use crate::augment::Augmentation;
 use crate::dataset::{Aabb, FrameView, PixelClass};
-use crate::mesh_extract::{Grid, extract_surface};
 use glam::Vec3;
 use neuroom_core::mesh::TriMesh;
+use neuroom_core::surface::{Grid, extract_surface};
 use neuroom_field::{CodeSet, Codes, NeusField, Outputs, Tape};
 use neuroom_render::sampling::uniform;
 use neuroom_render::volume::{RayTape, render_ray};

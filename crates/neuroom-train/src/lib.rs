@@ -14,7 +14,6 @@ pub mod dataset;
 pub mod eval;
 pub mod lighting;
 pub mod losses;
-pub mod mesh_extract;
 pub mod normals;
 pub mod progress;
 pub mod rng;

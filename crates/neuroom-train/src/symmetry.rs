@@ -12,7 +12,7 @@ use neuroom_core::mesh::TriMesh;
 use neuroom_core::metrics::Symmetry;
 use rayon::prelude::*;
 
-use crate::mesh_extract::{SurfaceDistance, outer_surface_samples};
+use neuroom_core::surface::{SurfaceDistance, outer_surface_samples};
 
 /// Points spread over the outer surface and turned.
 const SAMPLES: usize = 4000;

@@ -66,7 +66,7 @@ pub fn describe_field(r: &BenchReport) -> String {
 
 /// Ray-traced samples per second of the synthetic-room renderer on one furnished `bedroom` panorama of
 /// `width × width/2` pixels, with the full-room rendering quality.
-pub fn synth(width: u32, seed: u64) -> anyhow::Result<neuroom_synth::BenchReport> {
+pub fn synth(width: u32, seed: u64) -> anyhow::Result<neuroom_synth::SynthBenchReport> {
     anyhow::ensure!(
         width >= 16 && width.is_multiple_of(2),
         "--width must be an even number of at least 16"
@@ -79,7 +79,7 @@ pub fn synth(width: u32, seed: u64) -> anyhow::Result<neuroom_synth::BenchReport
 }
 
 /// One line of text for a synthetic-renderer measurement.
-pub fn describe_synth(r: &neuroom_synth::BenchReport) -> String {
+pub fn describe_synth(r: &neuroom_synth::SynthBenchReport) -> String {
     format!(
         "synth panorama {}×{} ({} triangles, {} spp, {} AO rays, {} threads): {:.0} samples/s, {:.0} rays/s, {:.2} s",
         r.width,

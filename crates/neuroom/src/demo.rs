@@ -15,7 +15,7 @@ use crate::eval::{EvalOptions, Evaluation, evaluate};
 use crate::export::{ExportOptions, export};
 use crate::inspect::{RoomReport, inspect_room};
 use crate::locate::{LocateConfig, locate, test_panoramas};
-use crate::synth::{Progress as SynthProgress, synthesize};
+use crate::synth::{StageProgress, synthesize};
 use crate::tour::{Generated, Lens, SequenceOutputs, TourPath, tour};
 use crate::train::{TrainOptions, TrainProgress, TrainSummary, train_room};
 use crate::view::ViewCamera;
@@ -80,7 +80,7 @@ pub trait DemoProgress {
     /// A stage starts.
     fn stage(&mut self, name: &str);
     /// Progress of the synthetic room.
-    fn synth(&mut self, p: SynthProgress);
+    fn synth(&mut self, p: StageProgress);
     /// Progress of training.
     fn train(&self) -> &dyn TrainProgress;
     /// `done` of `total` steps of the current stage's `label` (fit iterations, frames).

@@ -614,9 +614,7 @@ fn carry_room_lighting(edited: &mut Arrangement, source: &Path) -> anyhow::Resul
 #[cfg(test)]
 mod tests {
     use super::*;
-    use neuroom_export::testing::{
-        resting_height, tiny_arrangement, tiny_scene, write_tiny_models,
-    };
+    use neuroom_testing::{resting_height, tiny_arrangement, tiny_scene, write_tiny_models};
 
     fn ball_at(scene: &mut Scene<NeusField>, k: usize, p: Vec3) {
         scene.objects[k].translation = p;

@@ -344,7 +344,7 @@ mod tests {
     use super::*;
     use glam::DVec3;
     use neuroom_core::formats::{write_arrangement, write_rgb};
-    use neuroom_export::testing::{TINY_ROOM_JSON, tiny_arrangement, write_tiny_models};
+    use neuroom_testing::{TINY_ROOM_JSON, tiny_arrangement, write_tiny_models};
 
     /// A room folder whose only test panorama is the tiny models rendered at the truth, and the models.
     fn tiny_room(dir: &Path) -> (PathBuf, PathBuf) {

@@ -458,7 +458,7 @@ mod tests {
     use super::*;
     use neuroom_core::formats::{write_arrangement, write_rgb};
     use neuroom_core::image::Image;
-    use neuroom_export::testing::{tiny_arrangement, write_tiny_models};
+    use neuroom_testing::{tiny_arrangement, write_tiny_models};
 
     #[test]
     fn exports_a_glb_and_a_report_with_metrics_against_the_truth() {

@@ -241,8 +241,8 @@ fn output_paths(out: &Path) -> FitOutputs {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use neuroom_export::testing::{tiny_arrangement, tiny_models, write_tiny_models};
     use neuroom_fit::FitField;
+    use neuroom_testing::{tiny_arrangement, tiny_models, write_tiny_models};
 
     /// One pose step and no code adaptation: the report holds the light codes the objects started from.
     fn one_step() -> FitConfig {

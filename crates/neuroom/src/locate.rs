@@ -17,21 +17,24 @@ use neuroom_core::metrics::ArrangementScore;
 use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, Codes, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
+use neuroom_identify::DetectorView;
 use neuroom_identify::{DetectConfig, Network, NetworkDetector};
-use neuroom_locate::cloud::{FreeSpace, carve, surface_cloud};
-use neuroom_locate::evidence::{Detection, Detector, ResidualDetector, SearchView, colour_error};
+use neuroom_locate::evidence::{Detector, ResidualDetector, SearchView, colour_error};
 use neuroom_locate::local_light::{LocalLightConfig, RoomLight};
 use neuroom_locate::localize::camera_correlation;
 use neuroom_locate::merge::merge_views;
 use neuroom_locate::objects::{
-    Found, ObjectModel, ObjectStanding, Placement, SearchConfig, SearchInput, arrangement_error,
-    find_objects, object_standings,
+    Found, ObjectStanding, SearchConfig, SearchInput, arrangement_error, find_objects,
+    object_standings,
 };
-use neuroom_locate::plane::blur_rgb;
 use neuroom_locate::shading::{match_shading, panorama_normals};
 use neuroom_locate::{
-    CameraEstimate, DATABASE_FILE, Database, DatabaseConfig, LocalizeConfig, PANORAMA_FROM_PINHOLE,
-    SphereImage, build_database, localize, render_background,
+    CameraEstimate, LocalizeConfig, PANORAMA_FROM_PINHOLE, SphereImage, localize, render_background,
+};
+use neuroom_panorama::cloud::{FreeSpace, carve, surface_cloud};
+use neuroom_panorama::plane::blur_rgb;
+use neuroom_panorama::{
+    DATABASE_FILE, Database, DatabaseConfig, Detection, ObjectModel, Support, build_database,
 };
 use neuroom_render::RenderConfig;
 use neuroom_render::scene::{Background, Model, Scene};
@@ -224,9 +227,9 @@ pub fn object_models(
                 .iter()
                 .find(|o| entry.ids.contains(&o.id))
                 .with_context(|| format!("model `{}` draws no object of room.json", entry.name))?;
-            let placement = placement(&first.relations, &model_of);
-            let against_wall = placement == Placement::Wall
-                || (placement == Placement::Floor && first.relations.iter().any(|r| r == "wall"));
+            let support = support(&first.relations, &model_of);
+            let against_wall = support == Support::Wall
+                || (support == Support::Floor && first.relations.iter().any(|r| r == "wall"));
             // The model's bounds carry a margin; the object's box is room.json's `size` (docs/formats.md).
             let bounds = Vec3::from(entry.bounds.centred_half_extents());
             let half = (0.5 * first.size).as_vec3();
@@ -249,7 +252,7 @@ pub fn object_models(
                 half,
                 coarse: cloud(spacing),
                 fine: cloud(0.6 * spacing),
-                placement,
+                support,
                 against_wall,
             })
         })
@@ -290,18 +293,19 @@ fn free_space(room: &Room, object: &RoomObject, ids: &[u16]) -> anyhow::Result<V
         .collect())
 }
 
-fn placement(relations: &[String], model_of: &dyn Fn(&str) -> Option<usize>) -> Placement {
+/// Where an object with room.json's `relations` may stand.
+fn support(relations: &[String], model_of: &dyn Fn(&str) -> Option<usize>) -> Support {
     if let Some(m) = relations
         .iter()
         .find_map(|r| r.strip_prefix("on:").and_then(model_of))
     {
-        return Placement::On(m);
+        return Support::On(m);
     }
     let has = |k: &str| relations.iter().any(|r| r == k);
     if !has("floor") && has("wall") {
-        Placement::Wall
+        Support::Wall
     } else {
-        Placement::Floor
+        Support::Floor
     }
 }
 
@@ -641,10 +645,14 @@ fn detect_objects(ctx: &LocateContext, view: &SearchView, config: &LocateConfig)
         network,
         config: config.network.clone(),
     };
+    let pair = DetectorView {
+        query: &view.query,
+        empty: &view.empty,
+    };
     if config.detection == DetectorChoice::Named {
-        detector.name_regions(view, config.detector.detect(view))
+        detector.name_regions(pair, config.detector.detect(view))
     } else {
-        detector.detect(view)
+        detector.detect(pair)
     }
 }
 
@@ -957,8 +965,8 @@ pub fn keep_better_poses(
     let kept = back_where_better(initial, solved.clone(), &error);
     let supporters = |id: u16| -> Vec<u16> {
         let model = ctx.objects.iter().find(|m| m.ids.contains(&id));
-        match model.map(|m| &m.placement) {
-            Some(Placement::On(supporter)) => ctx.objects[*supporter].ids.clone(),
+        match model.map(|m| &m.support) {
+            Some(Support::On(supporter)) => ctx.objects[*supporter].ids.clone(),
             _ => Vec::new(),
         }
     };
@@ -1303,10 +1311,10 @@ mod tests {
     fn the_object_search_sees_the_objects_under_the_light_code_it_names() {
         let room = neuroom_core::formats::parse_room(
             Path::new("room.json"),
-            neuroom_export::testing::TINY_ROOM_JSON.as_bytes(),
+            neuroom_testing::TINY_ROOM_JSON.as_bytes(),
         )
         .unwrap();
-        let models = neuroom_export::testing::tiny_models();
+        let models = neuroom_testing::tiny_models();
         let colours = |light| {
             object_models(&room, &models, light).unwrap()[0]
                 .coarse
@@ -1352,7 +1360,7 @@ mod tests {
 
     #[test]
     fn the_fits_check_puts_back_an_object_the_fit_moved_off_what_the_panorama_shows() {
-        use neuroom_export::testing::{TINY_ROOM_JSON, tiny_arrangement, write_tiny_models};
+        use neuroom_testing::{TINY_ROOM_JSON, tiny_arrangement, write_tiny_models};
         let dir = tempfile::tempdir().unwrap();
         let (room, models) = (dir.path().join("room"), dir.path().join("models"));
         std::fs::create_dir_all(&room).unwrap();

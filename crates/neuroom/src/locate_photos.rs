@@ -14,8 +14,8 @@ use neuroom_core::formats::{ArrangedObject, Arrangement, read_mask, read_rgb};
 use neuroom_core::pose::Pose;
 use neuroom_locate::merge::merge_views;
 use neuroom_locate::objects::Found;
-use neuroom_locate::sphere::direction;
 use neuroom_locate::sphere_image::{photo_from_panorama, photo_sees};
+use neuroom_panorama::sphere::direction;
 use serde::{Deserialize, Serialize};
 
 use crate::locate::{

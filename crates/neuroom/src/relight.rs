@@ -101,7 +101,7 @@ pub fn relight(
 mod tests {
     use super::*;
     use neuroom_core::formats::write_arrangement;
-    use neuroom_export::testing::{tiny_arrangement, write_tiny_models};
+    use neuroom_testing::{tiny_arrangement, write_tiny_models};
 
     #[test]
     fn specs_parse_as_index_name_or_solved() {

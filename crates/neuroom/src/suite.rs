@@ -341,7 +341,7 @@ mod tests {
         let write = |sub: &str, name: &str| {
             let room = dir.path().join(sub);
             std::fs::create_dir_all(&room).unwrap();
-            let json = neuroom_export::testing::TINY_ROOM_JSON.replacen("tiny", name, 1);
+            let json = neuroom_testing::TINY_ROOM_JSON.replacen("tiny", name, 1);
             assert!(json.contains(name));
             std::fs::write(room.join("room.json"), json).unwrap();
             room

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-pub use neuroom_synth::{Preset, Progress, Summary};
+pub use neuroom_synth::{Preset, StageProgress, Summary};
 
 /// Generates the room of preset `preset` (`tiny`, `bedroom`, `living`, `office`) into `out`.
 /// With no `hdris`, the vendored maps light it.
@@ -13,7 +13,7 @@ pub fn synthesize(
     seed: u64,
     furniture: Option<&Path>,
     hdris: &[PathBuf],
-    progress: &mut dyn FnMut(Progress),
+    progress: &mut dyn FnMut(StageProgress),
 ) -> anyhow::Result<Summary> {
     let preset = Preset::named(preset).with_context(|| {
         format!(

@@ -311,7 +311,7 @@ pub fn tour(
 mod tests {
     use super::*;
     use neuroom_core::formats::write_arrangement;
-    use neuroom_export::testing::{ROOM_MAX, ROOM_MIN, tiny_arrangement, write_tiny_models};
+    use neuroom_testing::{ROOM_MAX, ROOM_MIN, tiny_arrangement, write_tiny_models};
 
     fn room() -> (DVec3, DVec3) {
         (

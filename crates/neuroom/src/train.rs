@@ -145,7 +145,7 @@ fn build_locate_database(dir: &Path, progress: &dyn TrainProgress) {
     progress.start("locate database", 0, 0);
     let built = crate::locate::build_locate_database(
         dir,
-        &neuroom_locate::database::DatabaseConfig::default(),
+        &neuroom_panorama::database::DatabaseConfig::default(),
         &mut |_, _| {},
     );
     progress.finish(&match built {

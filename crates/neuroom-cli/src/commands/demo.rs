@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use neuroom::demo::{DemoConfig, DemoProgress, DemoSize};
-use neuroom::synth::Progress as SynthProgress;
+use neuroom::synth::StageProgress;
 use neuroom::train::{TrainBar, TrainProgress};
 
 use crate::progress::StageBars;
@@ -45,7 +45,7 @@ impl DemoProgress for Terminal {
         eprintln!("== {name}");
     }
 
-    fn synth(&mut self, p: SynthProgress) {
+    fn synth(&mut self, p: StageProgress) {
         self.bars.update(p.stage, p.done as u64, p.total as u64);
     }
 

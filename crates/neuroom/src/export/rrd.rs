@@ -49,7 +49,7 @@ mod tests {
     use neuroom_core::image::Image;
     use neuroom_export::mesh::MeshDetail;
     use neuroom_export::rrd::RRD_MAGIC;
-    use neuroom_export::testing::{tiny_arrangement, write_tiny_models};
+    use neuroom_testing::{tiny_arrangement, write_tiny_models};
 
     use super::super::{ExportOptions, export};
 

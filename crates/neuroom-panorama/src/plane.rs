@@ -110,7 +110,7 @@ impl Plane {
 
 /// The normalised taps of a Gaussian of `sigma` pixels (> 0), offsets `-r..=r` for `r = ⌈3σ⌉`: the
 /// kernel of [`Plane::blur`].
-pub(crate) fn gaussian_taps(sigma: f32) -> Vec<f32> {
+pub fn gaussian_taps(sigma: f32) -> Vec<f32> {
     let radius = (3.0 * sigma).ceil() as isize;
     let taps: Vec<f32> = (-radius..=radius)
         .map(|k| (-0.5 * (k as f32 / sigma).powi(2)).exp())
@@ -122,7 +122,7 @@ pub(crate) fn gaussian_taps(sigma: f32) -> Vec<f32> {
 /// Calls `visit(target, source)` for every pixel `source` of a `sw × sh` image, with the pixel `target`
 /// of a `width × height` image that holds its centre (both row-major indices): the binning of area
 /// averaging.
-pub(crate) fn for_each_target(
+pub fn for_each_target(
     sw: usize,
     sh: usize,
     width: usize,
@@ -139,7 +139,7 @@ pub(crate) fn for_each_target(
 }
 
 /// Adds colour `c` to a running sum `[r, g, b, count]` (the first four slots of `sum`).
-pub(crate) fn add_colour(sum: &mut [f32], c: [f32; 3]) {
+pub fn add_colour(sum: &mut [f32], c: [f32; 3]) {
     sum[0] += c[0];
     sum[1] += c[1];
     sum[2] += c[2];

@@ -1,6 +1,7 @@
 //! A tiny untrained room for tests and examples: NeuS fields at their geometric initialisation — a ball
 //! per object model and a ball-shaped room seen from inside — with three named light codes, small hash
-//! tables so they build and render in milliseconds, and an arrangement placing them.
+//! tables so they build and render in milliseconds, and an arrangement placing them. Product crates take this
+//! crate as a dev-dependency only, so no fixture ships in them.
 
 use std::path::Path;
 
@@ -13,8 +14,6 @@ use neuroom_train::dataset::Aabb;
 use neuroom_train::room::ModelStats;
 use neuroom_train::trainer::LightCodes;
 use neuroom_train::{Manifest, ModelEntry, ModelKind, RoomModels};
-
-use crate::mesh::{MeshDetail, SceneMeshes, scene_meshes};
 
 /// Lower corner of the tiny room's box (metres).
 pub const ROOM_MIN: [f32; 3] = [0.0, 0.0, 0.0];
@@ -197,20 +196,4 @@ pub fn tiny_scene() -> Scene<NeusField> {
         },
         objects,
     }
-}
-
-/// The meshes of [`tiny_scene`], objects named as [`tiny_arrangement`] names them, extracted with cells of
-/// `object_cell_m` for the objects and `room_cell_m` for the room.
-pub fn tiny_meshes(object_cell_m: f32, room_cell_m: f32) -> SceneMeshes {
-    let names: Vec<String> = tiny_arrangement()
-        .objects
-        .iter()
-        .map(|o| o.name.clone())
-        .collect();
-    let detail = MeshDetail {
-        object_cell_m,
-        room_cell_m,
-        ..MeshDetail::default()
-    };
-    scene_meshes(&tiny_scene(), &names, &detail)
 }

@@ -8,10 +8,10 @@
 
 use std::collections::HashMap;
 
+use crate::mesh::{TriMesh, closest_point_on_triangle};
+use crate::winding::WindingTree;
 use glam::{UVec3, Vec3};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
-use neuroom_core::mesh::{TriMesh, closest_point_on_triangle};
-use neuroom_core::winding::WindingTree;
 use rayon::prelude::*;
 
 /// The six tetrahedra of a cube, as corner numbers (bit 0 = +x, bit 1 = +y, bit 2 = +z), all sharing the
@@ -199,7 +199,7 @@ fn buried_offset(mesh: &TriMesh) -> f32 {
 }
 
 /// Of `samples` points spread over `mesh`, those on the boundary of the solid it encloses.
-pub(crate) fn outer_surface_samples(mesh: &TriMesh, samples: usize) -> Vec<Vec3> {
+pub fn outer_surface_samples(mesh: &TriMesh, samples: usize) -> Vec<Vec3> {
     let offset = buried_offset(mesh);
     let tree = WindingTree::new(mesh);
     mesh.sample_surface_on_triangles(samples)
@@ -215,7 +215,7 @@ pub(crate) fn outer_surface_samples(mesh: &TriMesh, samples: usize) -> Vec<Vec3>
 /// Distances from points to a mesh's surface: a k-d tree of points spread densely over the surface,
 /// each tagged with its triangle, proposes the triangles near a query; the distance is the exact
 /// point–triangle distance to the nearest of those.
-pub(crate) struct SurfaceDistance<'a> {
+pub struct SurfaceDistance<'a> {
     mesh: &'a TriMesh,
     tree: ImmutableKdTree<f32, 3>,
     triangle_of: Vec<u32>,
@@ -236,7 +236,7 @@ impl<'a> SurfaceDistance<'a> {
 
     /// As [`SurfaceDistance::new`], the proposing points `spacing` apart (within [`PROPOSALS`]): a
     /// query is given the distance to a triangle at most about that far from its nearest.
-    pub(crate) fn with_spacing(mesh: &'a TriMesh, spacing: f32) -> Self {
+    pub fn with_spacing(mesh: &'a TriMesh, spacing: f32) -> Self {
         let wanted = (mesh.area() / (spacing * spacing)) as usize;
         let samples = mesh.sample_surface_on_triangles(wanted.clamp(PROPOSALS.0, PROPOSALS.1));
         let points: Vec<[f32; 3]> = samples.iter().map(|(p, _)| p.to_array()).collect();
@@ -250,7 +250,7 @@ impl<'a> SurfaceDistance<'a> {
     }
 
     /// Distance from `q` to the surface.
-    pub(crate) fn distance(&self, q: Vec3) -> f32 {
+    pub fn distance(&self, q: Vec3) -> f32 {
         let near = self
             .tree
             .nearest_n::<SquaredEuclidean>(&q.to_array(), NEAREST_PROPOSALS.try_into().unwrap());

@@ -15,7 +15,7 @@ pub fn direction(x: f64, y: f64, width: usize, height: usize) -> DVec3 {
 }
 
 /// Neighbours of pixel `i` of a `w × h` panorama (4-connected; columns wrap round, rows do not).
-pub(crate) fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
+pub fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
     let (u, v) = (i % w, i / w);
     let left = v * w + (u + w - 1) % w;
     let right = v * w + (u + 1) % w;

@@ -71,7 +71,7 @@ impl Default for DatabaseConfig {
 
 /// One database panorama, at an upright camera with yaw 0.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Entry {
+pub struct DatabaseEntry {
     /// Camera position (world, metres).
     pub position: Vec3,
     /// Colour, sRGB in [0, 1].
@@ -80,7 +80,7 @@ pub struct Entry {
     pub depth: Vec<f32>,
 }
 
-impl Entry {
+impl DatabaseEntry {
     /// The camera of this panorama.
     pub fn camera_to_world(&self) -> Pose {
         Pose::new(DMat3::IDENTITY, self.position.as_dvec3())
@@ -95,7 +95,7 @@ pub struct Database {
     /// Panorama height.
     pub height: usize,
     /// The panoramas.
-    pub entries: Vec<Entry>,
+    pub entries: Vec<DatabaseEntry>,
 }
 
 /// Renders the database of the empty room `scene` (a scene without objects) inside its background
@@ -118,7 +118,7 @@ pub fn build_database<F: Field>(
         let lower = &depth.data[w * h / 2..];
         let covered = lower.iter().filter(|d| **d > 0.0).count();
         if covered as f32 >= config.min_coverage * lower.len() as f32 {
-            entries.push(Entry {
+            entries.push(DatabaseEntry {
                 position: *position,
                 rgb,
                 depth: depth.data,
@@ -294,7 +294,14 @@ impl Database {
     }
 }
 
-fn decode_entry(k: usize, w: usize, h: usize, pos: &[u8], rgb: &[u8], depth: &[u8]) -> Entry {
+fn decode_entry(
+    k: usize,
+    w: usize,
+    h: usize,
+    pos: &[u8],
+    rgb: &[u8],
+    depth: &[u8],
+) -> DatabaseEntry {
     let f = |i: usize| f32::from_le_bytes(pos[4 * i..4 * i + 4].try_into().expect("4 bytes"));
     let px = w * h;
     let rgb_data = rgb[3 * px * k..3 * px * (k + 1)]
@@ -305,7 +312,7 @@ fn decode_entry(k: usize, w: usize, h: usize, pos: &[u8], rgb: &[u8], depth: &[u
         .chunks_exact(2)
         .map(|b| u16::from_le_bytes([b[0], b[1]]) as f32 / 1000.0)
         .collect();
-    Entry {
+    DatabaseEntry {
         position: Vec3::new(f(3 * k), f(3 * k + 1), f(3 * k + 2)),
         rgb: RgbImage {
             width: w as u32,
