@@ -9,7 +9,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use neuroom_core::FormatError;
-use neuroom_core::formats::atomic_write;
+use neuroom_core::formats::{atomic_write, canonical_safetensors};
 use safetensors::tensor::{Dtype, TensorView};
 use serde::de::DeserializeOwned;
 
@@ -214,6 +214,7 @@ fn write_tensors(
         })
         .collect::<Result<Vec<_>, FormatError>>()?;
     let bytes = safetensors::serialize(views, Some(meta)).map_err(err)?;
+    let bytes = canonical_safetensors(&bytes).map_err(|e| FormatError::file(path, e))?;
     atomic_write(path, &bytes)
 }
 

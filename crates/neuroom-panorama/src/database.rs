@@ -10,7 +10,7 @@ use std::path::Path;
 use glam::{DMat3, Vec3};
 use neuroom_core::FormatError;
 use neuroom_core::camera::Equirect;
-use neuroom_core::formats::atomic_write;
+use neuroom_core::formats::{atomic_write, canonical_safetensors};
 use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
@@ -230,6 +230,7 @@ impl Database {
             ("width".to_string(), w.to_string()),
         ]);
         let bytes = safetensors::serialize(views, Some(meta)).map_err(err)?;
+        let bytes = canonical_safetensors(&bytes).map_err(|e| FormatError::file(path, e))?;
         atomic_write(path, &bytes)
     }
 
@@ -320,5 +321,52 @@ fn decode_entry(
             data: rgb_data,
         },
         depth,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A database of two 8 × 4 panoramas with distinct colours and depths.
+    fn small() -> Database {
+        let (w, h) = (8, 4);
+        let entry = |k: usize| DatabaseEntry {
+            position: Vec3::new(k as f32, 0.5, 1.2),
+            rgb: RgbImage {
+                width: w as u32,
+                height: h as u32,
+                data: (0..w * h)
+                    .map(|i| [0.1 * k as f32, i as f32 / 32.0, 0.5])
+                    .collect(),
+            },
+            depth: (0..w * h).map(|i| 1.0 + i as f32 * 0.01).collect(),
+        };
+        Database {
+            width: w,
+            height: h,
+            entries: vec![entry(0), entry(1)],
+        }
+    }
+
+    #[test]
+    fn a_database_round_trips_and_is_written_with_the_same_bytes_every_time() {
+        let dir = tempfile::tempdir().unwrap();
+        let db = small();
+        let paths = [
+            dir.path().join("a.safetensors"),
+            dir.path().join("b.safetensors"),
+        ];
+        for p in &paths {
+            db.write(p).unwrap();
+        }
+        let bytes = paths.each_ref().map(|p| std::fs::read(p).unwrap());
+        assert_eq!(bytes[0], bytes[1]);
+        assert_eq!(canonical_safetensors(&bytes[0]).unwrap(), bytes[0]);
+        let back = Database::read(&paths[0]).unwrap();
+        assert_eq!((back.width, back.height), (8, 4));
+        assert_eq!(back.entries.len(), 2);
+        assert_eq!(back.entries[1].position, db.entries[1].position);
+        assert!((back.entries[1].depth[5] - db.entries[1].depth[5]).abs() < 1e-3);
     }
 }

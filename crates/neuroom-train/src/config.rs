@@ -6,6 +6,14 @@ use neuroom_field::{Group, NUM_GROUPS};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
+/// Default steps of an object model: about 5 minutes on 2 cores (docs/benchmarks.md, "Training").
+pub const OBJECT_STEPS: u64 = 5_000;
+/// Default steps of the room's model: about 10 minutes on 2 cores for the bedroom preset.
+pub const BACKGROUND_STEPS: u64 = 5_000;
+/// The most steps of a model given a time budget alone: a ceiling no budget of hours reaches on a CPU,
+/// so the time, not the steps, ends the run.
+pub const TIME_BUDGET_MAX_STEPS: u64 = 1_000_000;
+
 /// How long and how a model trains: what differs between objects and the room.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ModelBudget {
@@ -89,9 +97,9 @@ pub struct TrainConfig {
 }
 
 impl Default for TrainConfig {
-    /// Objects: 10 000 steps or 5 minutes (whichever ends first), 2 048 rays × (12 shell + 4 uniform)
-    /// samples, T = 2^15, finest 512. Room: 10 000 steps or 10 minutes, 2 048 rays, T = 2^18, finest
-    /// 1 024. Adam at 1e-2 (tables, codes), 5e-3 (networks), 1e-2 (variance), 20 warm-up steps, then
+    /// Budgets in steps, so the same configuration gives the same models on any machine and load:
+    /// objects [`OBJECT_STEPS`], 2 048 rays × (12 shell + 4 uniform) samples, T = 2^15, finest 512; the
+    /// room [`BACKGROUND_STEPS`], 2 048 rays, T = 2^18, finest 1 024. Adam at 1e-2 (tables, codes), 5e-3 (networks), 1e-2 (variance), 20 warm-up steps, then
     /// linear decay to 3 %; 4 hash levels at first and one more every 40 steps; every 10th frame held out;
     /// the vendored HDR maps for augmentation, 30 % of surface rays re-lit.
     fn default() -> Self {
@@ -105,8 +113,8 @@ impl Default for TrainConfig {
         lr[Group::Variance as usize] = 1e-2;
         Self {
             object: ModelBudget {
-                steps: 10_000,
-                time_budget_s: Some(300.0),
+                steps: OBJECT_STEPS,
+                time_budget_s: None,
                 batch_rays: 2048,
                 shell_samples: 12,
                 uniform_samples: 4,
@@ -116,8 +124,8 @@ impl Default for TrainConfig {
                 shell_min: 0.01,
             },
             background: ModelBudget {
-                steps: 10_000,
-                time_budget_s: Some(600.0),
+                steps: BACKGROUND_STEPS,
+                time_budget_s: None,
                 batch_rays: 2048,
                 shell_samples: 24,
                 uniform_samples: 8,

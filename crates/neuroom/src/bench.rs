@@ -124,25 +124,18 @@ pub fn describe_render(r: &neuroom_render::bench::RenderBenchReport) -> String {
     out
 }
 
-/// Trains one model of the room (`background` or an object name) from scratch within `seconds` (default:
-/// the training default) and evaluates it on held-out views. With `cpu_clock`, the budget counts CPU
-/// seconds per worker thread, which other programs on the machine do not shrink.
+/// Trains one model of the room (`background` or an object name) from scratch within the budget
+/// `options` give (by default the training default's steps) and evaluates it on held-out views.
 pub fn train(
     room: &std::path::Path,
     model: &str,
-    seconds: Option<f64>,
-    cpu_clock: bool,
+    options: &crate::train::TrainOptions,
 ) -> anyhow::Result<neuroom_train::bench::ModelBenchReport> {
-    let mut config = neuroom_train::TrainConfig::default();
-    if cpu_clock {
-        config.budget_clock = neuroom_train::BudgetClock::Cpu;
-    }
+    let config = options.config();
     let progress = neuroom_train::progress::Bar::default();
     Ok(if model == "background" {
-        config.background.time_budget_s = seconds.or(config.background.time_budget_s);
         neuroom_train::bench::bench_background(room, &config, &progress)?
     } else {
-        config.object.time_budget_s = seconds.or(config.object.time_budget_s);
         neuroom_train::bench::bench_object(room, model, &config, &progress)?
     })
 }

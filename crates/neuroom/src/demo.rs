@@ -172,30 +172,36 @@ pub fn run(config: &DemoConfig, progress: &mut dyn DemoProgress) -> anyhow::Resu
     })
 }
 
-/// Training budgets for the demo size.
+/// Training budgets for the demo size, in steps so that the demo prints the same figures on every run
+/// and machine (with the same thread count); calibrated on 2 cores (docs/benchmarks.md, "The demo").
 fn train_options(config: &DemoConfig) -> TrainOptions {
     match config.size {
-        // Three object models and the room in about 75 s of budgets; held-out evaluation adds ~50 s.
+        // Three object models and the room in about 75 s of steps; held-out evaluation adds ~50 s.
         DemoSize::Quick => TrainOptions {
-            object_seconds: Some(15.0),
-            background_seconds: Some(30.0),
+            object_steps: Some(300),
+            background_steps: Some(300),
             seed: Some(config.seed),
             // The demo locates with the residual detector: no identification network.
             identify_seconds: Some(0.0),
             ..TrainOptions::default()
         },
-        // Seven object models and the room in about 7 min of budgets on 2 cores (evaluation and the
+        // Seven object models and the room in about 7 min of steps on 2 cores (evaluation and the
         // localization database add about 3; the whole demo must stay under 15); `neuroom train` uses
-        // the full budgets (5 minutes per object, 10 for the room).
+        // the full budgets (about 5 minutes per object, 10 for the room).
         DemoSize::Full => TrainOptions {
-            object_seconds: Some(46.0),
-            background_seconds: Some(110.0),
+            object_steps: Some(FULL_OBJECT_STEPS),
+            background_steps: Some(FULL_BACKGROUND_STEPS),
             seed: Some(config.seed),
             identify_seconds: Some(0.0),
             ..TrainOptions::default()
         },
     }
 }
+
+/// Steps per object model of the full demo: about 46 s each on 2 cores.
+const FULL_OBJECT_STEPS: u64 = 800;
+/// Steps of the full demo's room model: about 110 s on 2 cores.
+const FULL_BACKGROUND_STEPS: u64 = 900;
 
 /// How many test panoramas the demo locates.
 fn panorama_count(config: &DemoConfig) -> usize {

@@ -197,6 +197,13 @@ impl std::str::FromStr for DetectorChoice {
     }
 }
 
+impl DetectorChoice {
+    /// Whether this detector cannot run without the identification network.
+    pub fn needs_network(self) -> bool {
+        matches!(self, Self::Network | Self::Named)
+    }
+}
+
 /// How far beyond an object's box (room.json `size`) its surface clouds reach (metres).
 const CLOUD_MARGIN: f32 = 0.01;
 

@@ -26,31 +26,34 @@ pub struct TrainOptions {
     pub seed: Option<u64>,
     /// Count the budgets in CPU seconds per worker thread (see [`neuroom_train::BudgetClock::Cpu`]).
     pub cpu_clock: bool,
-    /// Wall-clock budget of the identification network, seconds (default
-    /// [`TrainSettings::default`]'s; 0 = do not build it).
+    /// Wall-clock budget of the identification network, seconds (0 = do not build it). By default it
+    /// is built, for [`TrainSettings::default`]'s seconds, only when locate's default detector needs
+    /// it ([`DetectorChoice::needs_network`](crate::locate::DetectorChoice::needs_network)).
     pub identify_seconds: Option<f64>,
 }
 
 impl TrainOptions {
-    /// The training configuration these options give. A step budget given without a time budget
-    /// replaces the default's time budget too: the model then trains exactly that many steps, whatever
-    /// the machine's load, and the same options give the same models.
+    /// The training configuration these options give. Budgets are steps unless a time budget is given:
+    /// a model then trains exactly its steps, whatever the machine's load, and the same options give the
+    /// same models. A time budget given alone ends the run by the clock; given with steps, whichever
+    /// ends first.
     pub fn config(&self) -> TrainConfig {
         let mut c = TrainConfig::default();
-        if let Some(s) = self.object_steps {
-            c.object.steps = s;
-            c.object.time_budget_s = None;
-        }
-        if let Some(s) = self.background_steps {
-            c.background.steps = s;
-            c.background.time_budget_s = None;
-        }
-        if let Some(t) = self.object_seconds {
-            c.object.time_budget_s = Some(t);
-        }
-        if let Some(t) = self.background_seconds {
-            c.background.time_budget_s = Some(t);
-        }
+        let budget =
+            |b: &mut neuroom_train::ModelBudget, steps: Option<u64>, seconds: Option<f64>| {
+                b.time_budget_s = seconds;
+                b.steps = match (steps, seconds) {
+                    (Some(s), _) => s,
+                    (None, Some(_)) => neuroom_train::config::TIME_BUDGET_MAX_STEPS,
+                    (None, None) => b.steps,
+                };
+            };
+        budget(&mut c.object, self.object_steps, self.object_seconds);
+        budget(
+            &mut c.background,
+            self.background_steps,
+            self.background_seconds,
+        );
         if let Some(seed) = self.seed {
             c.seed = seed;
         }
@@ -77,7 +80,11 @@ pub fn train_room(
     if summary.manifest.complete {
         build_locate_database(&summary.dir, progress);
         let mut settings = TrainSettings::default();
-        settings.seconds = options.identify_seconds.unwrap_or(settings.seconds);
+        let used = crate::locate::LocateConfig::default()
+            .detection
+            .needs_network();
+        settings.seconds =
+            (options.identify_seconds).unwrap_or(if used { settings.seconds } else { 0.0 });
         if let Some(seed) = options.seed {
             settings.seed = seed;
         }

@@ -71,17 +71,8 @@ struct LocateArgs {
     /// varies over the panorama (the ablation of that step).
     #[arg(long)]
     no_local_light: bool,
-    /// Detector of the object regions: `residual` (difference with the empty room), `network` (the
-    /// identification network `neuroom train` stores beside the models), `named` (the residual's
-    /// regions named by the network) or `auto` (the network when present).
-    #[arg(long)]
-    detector: Option<neuroom::locate::DetectorChoice>,
-    /// Light code (its name in the model manifest, e.g. `studio`) under which the object search sees
-    /// the objects' colours; by default their first capture lighting. For objects captured under a light
-    /// unlike the room's: on blender-lite (objects lit by a studio environment, the room by ceiling
-    /// panels) `studio` placed them better, on the synthetic presets a little worse (see docs/benchmarks.md).
-    #[arg(long)]
-    object_light: Option<String>,
+    #[command(flatten)]
+    search: super::search_args::SearchArgs,
     /// Also run the holistic fit from the initial poses (as `neuroom locate` does) and score its poses
     /// (the suite runs it unless `--no-fit`).
     #[arg(long, conflicts_with_all = ["photos", "suite"])]
@@ -165,7 +156,10 @@ struct TrainArgs {
     room: PathBuf,
     /// `background` or an object name from room.json.
     model: String,
-    /// Time budget in seconds (default: the training default for that kind of model).
+    /// Optimisation steps (default: the training default for that kind of model).
+    #[arg(long)]
+    steps: Option<u64>,
+    /// Time budget in seconds instead of steps (with `--steps`, whichever ends first).
     #[arg(long)]
     seconds: Option<f64>,
     /// Count the budget in CPU seconds per worker thread instead of wall-clock seconds, so other programs
@@ -245,7 +239,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         }
         Which::Train(a) => {
-            let report = bench::train(&a.room, &a.model, a.seconds, a.cpu_clock)?;
+            let report = bench::train(
+                &a.room,
+                &a.model,
+                &neuroom::train::TrainOptions {
+                    object_steps: a.steps,
+                    background_steps: a.steps,
+                    object_seconds: a.seconds,
+                    background_seconds: a.seconds,
+                    cpu_clock: a.cpu_clock,
+                    ..Default::default()
+                },
+            )?;
             println!("{}", bench::describe_train(&report));
             if a.json {
                 println!("{}", serde_json::to_string(&report)?);
@@ -311,13 +316,11 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
 /// `neuroom bench locate`: camera, identification and initial-pose scores per panorama and their mean.
 fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
     let defaults = neuroom::locate::LocateConfig::default();
-    let config = neuroom::locate::LocateConfig {
+    let config = a.search.apply(neuroom::locate::LocateConfig {
         match_shading: !a.no_shading,
         local_light: defaults.local_light.clone().filter(|_| !a.no_local_light),
-        detection: a.detector.unwrap_or(defaults.detection),
-        object_light: a.object_light.clone(),
         ..defaults
-    };
+    });
     let fit = neuroom::fit::FitConfig {
         preview_height: None,
         ..neuroom::fit::FitConfig::refinement()

@@ -37,11 +37,8 @@ pub struct Args {
     /// Rays per iteration.
     #[arg(long)]
     rays: Option<usize>,
-    /// Start every object's light code from this named light code of the models (`capture`,
-    /// `apartment`, `lobby`, `studio` for models lit by the default maps; the manifest lists them)
-    /// instead of the first capture lighting: the one `neuroom locate --object-light` searched under.
-    #[arg(long)]
-    object_light: Option<String>,
+    #[command(flatten)]
+    light: super::search_args::ObjectLightArgs,
     /// Afterwards put each object back at its initial pose where the object search's colour model says
     /// that explains the panorama better, as `neuroom locate` checks its own fit (needs `--room`).
     #[arg(long, requires = "room")]
@@ -72,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             panorama: &args.panorama,
             init: &args.init,
             room: args.room.as_deref(),
-            object_light: args.object_light.as_deref(),
+            object_light: args.light.object_light.as_deref(),
             check: args.check,
         },
         &args.out,

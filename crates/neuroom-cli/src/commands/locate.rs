@@ -40,17 +40,8 @@ pub struct Args {
     /// Output arrangement JSON.
     #[arg(short, long)]
     out: PathBuf,
-    /// Detector of the object regions: `residual`, `network` (the identification network stored with
-    /// the models), `named` (the residual's regions named by the network) or `auto` (the network when
-    /// present).
-    #[arg(long)]
-    detector: Option<neuroom::locate::DetectorChoice>,
-    /// Light code (its name in the model manifest, e.g. `studio`) under which the object search sees
-    /// the objects' colours; by default their first capture lighting. For objects captured under a light
-    /// unlike the room's: on blender-lite (objects lit by a studio environment, the room by ceiling
-    /// panels) `studio` placed them better, on the synthetic presets a little worse (see docs/benchmarks.md).
-    #[arg(long)]
-    object_light: Option<String>,
+    #[command(flatten)]
+    search: super::search_args::SearchArgs,
     /// Stop after the initial poses (no holistic fit).
     #[arg(long)]
     no_fit: bool,
@@ -74,12 +65,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .appearance_iterations
         .unwrap_or(fit.appearance_iterations);
     let total = (fit.pose_iterations + fit.appearance_iterations) as u64;
-    let defaults = LocateConfig::default();
-    let config = LocateConfig {
-        detection: args.detector.unwrap_or(defaults.detection),
-        object_light: args.object_light.clone(),
-        ..defaults
-    };
+    let config = args.search.apply(LocateConfig::default());
     let mut bars = StageBars::new();
     let outputs = neuroom::locate::locate(
         &args.room,

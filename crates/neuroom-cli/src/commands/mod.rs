@@ -12,5 +12,6 @@ pub mod locate;
 mod pinhole;
 pub mod relight;
 pub mod render;
+mod search_args;
 pub mod synth;
 pub mod train;

@@ -15,17 +15,19 @@ pub struct Args {
     /// Folder that receives `<room name>/` with one model per object capture and the background.
     #[arg(long)]
     out: PathBuf,
-    /// Optimisation steps per object model; without `--object-seconds`, exactly this many, whatever
-    /// the machine's load (reproducible).
+    /// Optimisation steps per object model (default 5000, about 5 minutes on 2 cores); without
+    /// `--object-seconds`, exactly this many, whatever the machine's load (reproducible).
     #[arg(long)]
     object_steps: Option<u64>,
-    /// Optimisation steps of the background model; without `--background-seconds`, exactly this many.
+    /// Optimisation steps of the background model (default 5000, about 10 minutes on 2 cores);
+    /// without `--background-seconds`, exactly this many.
     #[arg(long)]
     background_steps: Option<u64>,
-    /// Time budget per object model, seconds.
+    /// Time budget per object model, seconds, instead of steps (with `--object-steps`, whichever
+    /// ends first). The models then depend on the machine's load.
     #[arg(long)]
     object_seconds: Option<f64>,
-    /// Time budget of the background model, seconds.
+    /// Time budget of the background model, seconds, instead of steps.
     #[arg(long)]
     background_seconds: Option<f64>,
     /// Worker threads (0 = all cores); resuming bit-identically needs the same count.
@@ -39,7 +41,8 @@ pub struct Args {
     #[arg(long)]
     cpu_clock: bool,
     /// Time budget of the object identification network, seconds (trained after the models and the
-    /// localization database; 0 = do not build it). Default: 600.
+    /// localization database; 0 = do not build it). By default it is not built: `neuroom locate`'s
+    /// default detector does not use it (`--detector network` or `named` does).
     #[arg(long)]
     identify_seconds: Option<f64>,
     /// Print the summary as JSON.

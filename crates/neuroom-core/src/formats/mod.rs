@@ -10,6 +10,7 @@ pub mod envmap;
 pub mod images;
 pub mod json;
 pub mod room;
+pub mod tensor_file;
 pub mod transforms;
 
 pub use arrangement::{
@@ -22,6 +23,7 @@ pub use images::{
     read_rgba, write_depth, write_mask, write_rgb, write_rgba,
 };
 pub use room::{BackgroundSpec, Room, RoomObject, parse_room, read_room, write_room};
+pub use tensor_file::canonical_safetensors;
 pub use transforms::{
     Capture, Frame, parse_capture, parse_intrinsics, read_capture, read_intrinsics_file,
     write_capture,

@@ -60,16 +60,14 @@ fn pairs() -> Vec<Pair> {
     pairs
 }
 
+/// Run by `.ci/run` where the converted weights exist (`cargo test -- --ignored lpips_weights_`).
 #[test]
-fn real_weights_match_the_numpy_reference() {
+#[ignore = "needs the converted LPIPS weights: python3 tools/setup_lpips.py"]
+fn lpips_weights_match_the_numpy_reference() {
     let pairs = pairs();
-    let path = Lpips::default_path().filter(|p| p.exists());
-    let Some(path) = path else {
-        eprintln!(
-            "SKIPPED real_weights_match_the_numpy_reference: no converted weights; run `python3 tools/setup_lpips.py`"
-        );
-        return;
-    };
+    let path = Lpips::default_path()
+        .filter(|p| p.exists())
+        .expect("no converted LPIPS weights: run `python3 tools/setup_lpips.py`");
     let lpips = Lpips::load(&path).unwrap();
     for p in pairs {
         let (a, b) = (
