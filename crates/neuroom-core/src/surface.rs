@@ -234,7 +234,7 @@ impl<'a> SurfaceDistance<'a> {
         Self::with_spacing(mesh, PROPOSAL_SPACING)
     }
 
-    /// As [`SurfaceDistance::new`], the proposing points `spacing` apart (within [`PROPOSALS`]): a
+    /// As `SurfaceDistance::new`, the proposing points `spacing` apart (within `PROPOSALS`): a
     /// query is given the distance to a triangle at most about that far from its nearest.
     pub fn with_spacing(mesh: &'a TriMesh, spacing: f32) -> Self {
         let wanted = (mesh.area() / (spacing * spacing)) as usize;

@@ -13,7 +13,7 @@
 //!   posed points, backward to both poses), [`pose_grad`] (matrix-form pose gradients → 6D).
 //! - [`relations`]: support and wall relations from rules and room.json hints; [`sampling`]: the
 //!   object-mask and latitude-biased choice of pixels; [`optim`]: Adam over scalars; [`codes`]: the code
-//!   rows a field exposes to stage 2; [`bench`]: noisy initialisations and scores for `neuroom bench fit`.
+//!   rows a field exposes to stage 2; [`bench`](mod@bench): noisy initialisations and scores for `neuroom bench fit`.
 //!
 //! ```
 //! use neuroom_fit::bench::analytic_room;

@@ -76,7 +76,7 @@ const HIT: f32 = 2e-3;
 
 /// About `count` surface points of the field inside the box of half extents `half`: faces drawn in
 /// proportion to their area, points uniform on them (inset by 1 %), traced inward; points that reach no
-/// surface are dropped; then the contact points of the bottom and the back ([`CONTACT_KEEP`] at most
+/// surface are dropped; then the contact points of the bottom and the back (`CONTACT_KEEP` at most
 /// each). Deterministic for a `seed`.
 pub fn sample_surface<F: Field>(field: &F, half: Vec3, count: usize, seed: u64) -> SurfacePoints {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);

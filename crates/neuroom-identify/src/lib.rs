@@ -2,12 +2,12 @@
 //! a panorama and names its model, trained on panoramas composed from the trained room itself (the
 //! paper's data augmentation), so the labels come for free.
 //!
-//! - [`compose`]: training panoramas from the localization database's empty-room panoramas and the
+//! - [`compose`](mod@compose): training panoramas from the localization database's empty-room panoramas and the
 //!   object models' surface clouds, under random light and tone, with per-pixel labels; [`place`] puts
 //!   the objects where the room's rules allow (floor, wall, on a support, no collision).
 //! - [`net`]: the small fully convolutional segmentation network (burn, pure-Rust CPU backend) over
 //!   the panorama and the empty room at the same camera; [`infer`] runs it.
-//! - [`train`]: weighted pixel-wise cross-entropy, Adam, a time budget, checkpoints to resume from.
+//! - [`train`](mod@train): weighted pixel-wise cross-entropy, Adam, a time budget, checkpoints to resume from.
 //! - [`store`]: the network and the checkpoint on disk (safetensors, written atomically).
 //! - [`detect`]: the network as a detector of named object regions, with a confidence threshold.
 

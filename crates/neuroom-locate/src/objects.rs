@@ -68,7 +68,7 @@ pub struct SearchConfig {
     /// Of those, the most of one model.
     pub contenders_per_model: usize,
     /// [`SearchConfig::contenders_per_model`] of the pass over the objects after the search in the
-    /// scene of the placed objects ([`residual_search`]), whose polished hypotheses near an object's true place may rank below
+    /// scene of the placed objects (`residual_search`), whose polished hypotheses near an object's true place may rank below
     /// three near its wrong one.
     pub residual_contenders_per_model: usize,
     /// Least score of a placed object (sum of colour-error gains, sRGB units × pixels).

@@ -8,7 +8,7 @@
 //!   tone adjusters and the fields' parameters, codes included).
 //! - [`config`]: safe-region vs classical sampling and the per-pass cost ([`config::RenderStats`]).
 //! - [`image`]: whole images (pinhole or panorama) with depth and instance ids.
-//! - [`bench`]: the paper's Table 3 — queries, memory and time per iteration, safe region vs classical.
+//! - [`bench`](mod@bench): the paper's Table 3 — queries, memory and time per iteration, safe region vs classical.
 //! - [`volume`], [`sampling`]: single-field NeuS volume rendering and sample placement, also used by the
 //!   trainer.
 //!

@@ -5,7 +5,7 @@
 //! 1. [`Renderer::plan`] (no gradient, see [`crate::plan`]): cull, sphere-trace and place samples.
 //! 2. [`Renderer::forward`]: per field, the sample points `p = Rᵀ(o + t·d − T)` and directions `Rᵀd` in its
 //!    frame from the current pose, one batched [`Field::forward`] per field, then per ray the composite of
-//!    all fields (see [`crate::composite`]), in rayon tasks of [`RAYS_PER_TASK`] rays.
+//!    all fields (see [`crate::composite`]), in rayon tasks of `RAYS_PER_TASK` rays.
 //! 3. [`Renderer::backward`]: per ray the composite's backward (tone gradients kept per task, summed at the
 //!    end), per field [`Field::backward`] (parameter gradients — codes included — into the caller's
 //!    per-model `Params`, and `∂loss/∂p`), then per object the pose gradient

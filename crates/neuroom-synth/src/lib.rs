@@ -2,7 +2,7 @@
 //! exact ray tracer (binned-SAH BVH per mesh plus a top-level BVH over instances), an arrangement
 //! sampler that follows room logic, and writers for every file of `docs/formats.md`.
 //!
-//! Entry point: [`generate`] with a [`Preset`] (see [`PRESET_NAMES`]).
+//! Entry point: [`generate()`] with a [`Preset`] (see [`PRESET_NAMES`]).
 
 pub mod bench;
 pub mod bvh;

@@ -123,7 +123,7 @@ pub struct LocateConfig {
     /// ([`match_shading`]) before objects are searched; otherwise only a global per-channel gain.
     pub match_shading: bool,
     /// Relight that rendering, and the objects, by the light as it varies over the panorama (a lamp
-    /// lighting one corner, a spot, a window: [`fit_light_field`]); `None`: one light everywhere.
+    /// lighting one corner, a spot, a window: [`fit_light_field`](neuroom_locate::local_light::fit_light_field)); `None`: one light everywhere.
     #[serde(default = "default_local_light")]
     pub local_light: Option<LocalLightConfig>,
     /// Which detector finds the object regions.
@@ -434,7 +434,7 @@ impl QueryImage {
 /// Locates `query` in the room of `ctx`: camera, detections, objects and initial poses; returns the
 /// arrangement (docs/formats.md, with the camera, its `camera_confidence` and any `warnings`; `image_name`
 /// names the image file; a photo's intrinsics are recorded as `camera`), the details (whose camera is
-/// the panorama frame) and the query's view at the found camera ([`object_view`]), in which
+/// the panorama frame) and the query's view at the found camera (`object_view`), in which
 /// arrangements are judged.
 pub fn locate_image(
     ctx: &LocateContext,
@@ -453,7 +453,7 @@ pub fn locate_image(
 /// Locates several views of one arrangement (panoramas or photos, [`QueryImage`]), each on its own,
 /// and merges their objects ([`merge_views`]). The arrangement states the first view's camera and
 /// image; every view's image, camera and intrinsics are listed under `views`. Each view's details and
-/// its view at the found camera ([`object_view`]) come with it.
+/// its view at the found camera (`object_view`) come with it.
 pub fn locate_views(
     ctx: &LocateContext,
     views: &[(QueryImage, String)],
@@ -954,8 +954,8 @@ fn placed_objects(ctx: &LocateContext, arrangement: &Arrangement) -> Vec<Found> 
 
 /// The fit's arrangement `solved`, with each object put back at its pose in `initial` where the
 /// panorama is then explained better by the object search's colour model ([`arrangement_error`] in
-/// `view`, the panorama at the found `camera`: [`object_view`]), object by object in turn; such an object is marked `"initial_pose": true`. An object
-/// standing on another is then seated on it ([`seated_on_supporters`]). The fit's photometric loss under
+/// `view`, the panorama at the found `camera`: `object_view`), object by object in turn; such an object is marked `"initial_pose": true`. An object
+/// standing on another is then seated on it (`seated_on_supporters`). The fit's photometric loss under
 /// a changed light can drag an object that the search had placed well: on the office and living presets
 /// it moved the bookshelf 3–12 cm.
 pub fn keep_better_poses(
