@@ -1,12 +1,13 @@
 //! The crate graph is what `crate-graph.txt` (beside ARCHITECTURE.md) says it is: every workspace crate's
 //! normal dependencies on other workspace crates, read from `cargo metadata`, equal the list's, both
 //! ways. A new arrow (a stage importing another, the CLI reaching past the face) fails here until the
-//! list, and with it the architecture, says so.
+//! list, and with it the architecture, says so. ARCHITECTURE.md's table has one row per crate of the list.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::process::Command;
 
 const LIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../crate-graph.txt");
+const ARCHITECTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../ARCHITECTURE.md");
 
 /// Crate → the workspace crates it depends on.
 type Graph = BTreeMap<String, BTreeSet<String>>;
@@ -125,4 +126,23 @@ fn the_listed_graph_parses_and_has_no_cycle() {
         );
         settled.extend(next.into_iter().cloned());
     }
+}
+
+#[test]
+fn architecture_md_has_one_row_per_crate() {
+    let text = std::fs::read_to_string(ARCHITECTURE)
+        .unwrap_or_else(|e| panic!("cannot read {ARCHITECTURE}: {e}"));
+    // Rows of the crates table start with the crate's name in backticks: "| `neuroom-core` | …".
+    let mut rows: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("| `"))
+        .filter_map(|l| l.split_once("` |").map(|(name, _)| name))
+        .filter(|name| name.starts_with("neuroom"))
+        .collect();
+    rows.sort_unstable();
+    let crates: Vec<String> = listed().into_keys().collect();
+    assert_eq!(
+        rows, crates,
+        "ARCHITECTURE.md's table rows and the crates of crate-graph.txt differ"
+    );
 }
