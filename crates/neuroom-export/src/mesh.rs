@@ -245,9 +245,10 @@ pub fn scene_meshes(
     out
 }
 
+/// The meshes of the test fixtures' tiny scene (`neuroom_testing::tiny_scene`), objects named as its
+/// arrangement names them, extracted with cells of `object_cell_m` for the objects and `room_cell_m` for
+/// the room.
 #[cfg(test)]
-/// The meshes of [`tiny_scene`](neuroom_testing::tiny_scene), objects named as [`tiny_arrangement`](neuroom_testing::tiny_arrangement) names them, extracted with cells of
-/// `object_cell_m` for the objects and `room_cell_m` for the room.
 pub(crate) fn tiny_meshes(object_cell_m: f32, room_cell_m: f32) -> SceneMeshes {
     let names: Vec<String> = neuroom_testing::tiny_arrangement()
         .objects

@@ -99,8 +99,8 @@ pub struct TrainConfig {
 impl Default for TrainConfig {
     /// Budgets in steps, so the same configuration gives the same models on any machine and load:
     /// objects [`OBJECT_STEPS`], 2 048 rays × (12 shell + 4 uniform) samples, T = 2^15, finest 512; the
-    /// room [`BACKGROUND_STEPS`], 2 048 rays, T = 2^18, finest 1 024. Adam at 1e-2 (tables, codes), 5e-3 (networks), 1e-2 (variance), 20 warm-up steps, then
-    /// linear decay to 3 %; 4 hash levels at first and one more every 40 steps; every 10th frame held out;
+    /// room [`BACKGROUND_STEPS`], 2 048 rays, T = 2^18, finest 1 024. Adam at 1e-2 (tables, codes),
+    /// 5e-3 (networks), 1e-2 (variance), 20 warm-up steps, then linear decay to 3 %; 4 hash levels at first and one more every 40 steps; every 10th frame held out;
     /// the vendored HDR maps for augmentation, 30 % of surface rays re-lit.
     fn default() -> Self {
         let mut lr = [0.0; NUM_GROUPS];

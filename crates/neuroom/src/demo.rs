@@ -174,6 +174,8 @@ pub fn run(config: &DemoConfig, progress: &mut dyn DemoProgress) -> anyhow::Resu
 
 /// Training budgets for the demo size, in steps so that the demo prints the same figures on every run
 /// and machine (with the same thread count); calibrated on 2 cores (docs/benchmarks.md, "The demo").
+/// The identification network follows `neuroom train`'s default: built only when the locate default
+/// the demo uses needs it.
 fn train_options(config: &DemoConfig) -> TrainOptions {
     match config.size {
         // Three object models and the room in about 75 s of steps; held-out evaluation adds ~50 s.
@@ -181,8 +183,6 @@ fn train_options(config: &DemoConfig) -> TrainOptions {
             object_steps: Some(300),
             background_steps: Some(300),
             seed: Some(config.seed),
-            // The demo locates with the residual detector: no identification network.
-            identify_seconds: Some(0.0),
             ..TrainOptions::default()
         },
         // Seven object models and the room in about 7 min of steps on 2 cores (evaluation and the
@@ -192,7 +192,6 @@ fn train_options(config: &DemoConfig) -> TrainOptions {
             object_steps: Some(FULL_OBJECT_STEPS),
             background_steps: Some(FULL_BACKGROUND_STEPS),
             seed: Some(config.seed),
-            identify_seconds: Some(0.0),
             ..TrainOptions::default()
         },
     }

@@ -17,8 +17,7 @@ use neuroom_core::metrics::ArrangementScore;
 use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, Codes, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
-use neuroom_identify::DetectorView;
-use neuroom_identify::{DetectConfig, Network, NetworkDetector};
+use neuroom_identify::{DetectConfig, DetectorView, Network, NetworkDetector};
 use neuroom_locate::evidence::{Detector, ResidualDetector, SearchView, colour_error};
 use neuroom_locate::local_light::{LocalLightConfig, RoomLight};
 use neuroom_locate::localize::camera_correlation;
@@ -123,7 +122,8 @@ pub struct LocateConfig {
     /// ([`match_shading`]) before objects are searched; otherwise only a global per-channel gain.
     pub match_shading: bool,
     /// Relight that rendering, and the objects, by the light as it varies over the panorama (a lamp
-    /// lighting one corner, a spot, a window: [`fit_light_field`](neuroom_locate::local_light::fit_light_field)); `None`: one light everywhere.
+    /// lighting one corner, a spot, a window:
+    /// [`fit_light_field`](neuroom_locate::local_light::fit_light_field)); `None`: one light everywhere.
     #[serde(default = "default_local_light")]
     pub local_light: Option<LocalLightConfig>,
     /// Which detector finds the object regions.
