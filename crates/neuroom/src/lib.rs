@@ -2,12 +2,14 @@
 //! stage crates — core formats, synthetic rooms, training, perception and fitting — without the stages
 //! importing one another.
 
+pub mod baseline;
 pub mod bench;
 pub mod bench_fit;
 pub mod demo;
 pub mod edit;
 pub mod eval;
 pub mod export;
+pub mod figures;
 pub mod fit;
 pub mod identify;
 pub mod inspect;

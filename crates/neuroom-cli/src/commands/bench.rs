@@ -51,6 +51,17 @@ enum Which {
     /// Example: `neuroom bench locate rooms/bedroom models/bedroom --fit --json`, or
     /// `neuroom bench locate rooms/bedroom models/bedroom --photos 4 --json`
     Locate(LocateArgs),
+    /// The README's results table, made from the figure records (`bench/figures/*.json`) that the
+    /// benchmarks write with `--record`.
+    ///
+    /// Example: `neuroom bench table --readme README.md` (or `--check` to only compare)
+    Table(super::bench_figures::TableArgs),
+    /// A fast case end to end (the `tiny` or `studio` room made, trained with short step budgets and
+    /// every test panorama located) at fixed seeds and thread count: the figures CI checks against
+    /// their committed record.
+    ///
+    /// Example: `neuroom bench baseline tiny --check bench/figures/90-baseline-tiny.json`
+    Baseline(super::bench_figures::BaselineArgs),
 }
 
 #[derive(clap::Args)]
@@ -98,6 +109,8 @@ struct LocateArgs {
     /// Print one JSON object per panorama and one for the mean, after the text.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    record: super::record_args::RecordArgs,
 }
 
 #[derive(clap::Args)]
@@ -258,6 +271,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         Which::Fit(a) => fit(a)?,
         Which::Locate(a) => run_locate(&a)?,
+        Which::Table(a) => super::bench_figures::table(&a)?,
+        Which::Baseline(a) => super::bench_figures::baseline(&a)?,
         Which::Render(a) => {
             let report = bench::render(a.iterations)?;
             print!("{}", bench::describe_render(&report));
@@ -413,7 +428,14 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
         }
     };
     if !a.suite.suite.is_empty() {
-        return super::bench_suite::run_suite(&a.suite, config, a.camera_effect, &mut each, a.json);
+        return super::bench_suite::run_suite(
+            &a.suite,
+            config,
+            a.camera_effect,
+            &mut each,
+            a.json,
+            &a.record,
+        );
     }
     let (Some(room_dir), Some(models)) = (&a.room, &a.models) else {
         anyhow::bail!("bench locate needs ROOM and MODELS, or --suite DIR…");
@@ -444,7 +466,10 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
             neuroom::locate::bench_locate(room_dir, models, &config, fit, effect, &mut each)?.1
         }
     };
-    print_locate_mean("", &mean, a.json)
+    print_locate_mean("", &mean, a.json)?;
+    let name = neuroom::read_room(room_dir)?.name;
+    let figures = neuroom::figures::LocateFigures::from_locate_mean(&mean);
+    a.record.write(a.record.record(&name, figures))
 }
 
 /// A camera effect by name ([`neuroom::CameraEffect::named`]).

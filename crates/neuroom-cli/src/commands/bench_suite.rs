@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use neuroom::CameraEffect;
+use neuroom::figures::{LocateFigures, WorstRoom};
 use neuroom::locate::{LocateConfig, LocateMean};
 use neuroom::suite::{SuiteEvent, SuiteSpec, SuiteTraining};
 use neuroom::train::TrainBar;
@@ -46,6 +47,7 @@ pub fn run_suite(
     effect: Option<CameraEffect>,
     print_panorama: &mut dyn FnMut(&neuroom::locate::PanoramaScore),
     json: bool,
+    record: &super::record_args::RecordArgs,
 ) -> anyhow::Result<()> {
     let spec = SuiteSpec {
         dirs: args.suite.clone(),
@@ -114,7 +116,13 @@ pub fn run_suite(
     if json {
         println!("{}", serde_json::json!({ "suite": report }));
     }
-    Ok(())
+    let label = format!("validation suite, {} rooms", report.rooms.len());
+    let mut row = record.record(&label, LocateFigures::from_locate_mean(&report.mean));
+    row.worst_room = Some(WorstRoom {
+        room: report.worst.room.clone(),
+        figures: LocateFigures::from_locate_mean(&report.worst.mean),
+    });
+    record.write(row)
 }
 
 /// One line of a room's (or the suite's) figures.

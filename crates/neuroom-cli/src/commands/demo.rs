@@ -31,6 +31,8 @@ pub struct Args {
     /// Print the summary (room check, models, evaluation, outputs, seconds per stage) as JSON.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    record: super::record_args::RecordArgs,
 }
 
 /// Terminal progress for the demo's stages.
@@ -75,6 +77,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let summary = neuroom::demo::run(&config, &mut terminal)?;
     terminal.bars.finish();
+    let label = if args.quick {
+        "studio, `neuroom demo --quick`"
+    } else {
+        "bedroom, `neuroom demo`"
+    };
+    let figures = neuroom::figures::LocateFigures::from_evaluation(&summary.evaluation);
+    args.record.write(args.record.record(label, figures))?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
         return Ok(());

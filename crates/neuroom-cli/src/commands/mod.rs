@@ -1,6 +1,7 @@
 //! One module per subcommand: its arguments and how it calls the library.
 
 pub mod bench;
+mod bench_figures;
 pub mod bench_suite;
 pub mod demo;
 pub mod edit;
@@ -10,6 +11,7 @@ pub mod fit;
 pub mod info;
 pub mod locate;
 mod pinhole;
+mod record_args;
 pub mod relight;
 pub mod render;
 mod search_args;
