@@ -162,6 +162,9 @@ pub struct LayerMesh {
     pub pose: Pose,
     /// sRGB vertex colours, one per vertex of the geometry.
     pub colors: Vec<[f32; 3]>,
+    /// Whether this is the room's own surface, whose faces look into the room (free space is where its
+    /// SDF is positive) rather than out of an object.
+    pub room: bool,
 }
 
 /// The meshes of a whole scene: one geometry per model drawn, one coloured layer per room or object.
@@ -176,6 +179,7 @@ pub struct SceneMeshes {
 /// What one layer needs to be meshed: where its model's box lies and how it is lit.
 struct LayerSpec {
     name: String,
+    room: bool,
     model: usize,
     pose: Pose,
     codes: InstanceCodes,
@@ -190,6 +194,7 @@ fn layer_specs(scene: &Scene<NeusField>, names: &[String], detail: &MeshDetail) 
     let bg = &scene.background;
     let room = LayerSpec {
         name: "room".into(),
+        room: true,
         model: bg.model,
         pose: Pose::IDENTITY,
         codes: bg.codes,
@@ -203,6 +208,7 @@ fn layer_specs(scene: &Scene<NeusField>, names: &[String], detail: &MeshDetail) 
             .get(k)
             .cloned()
             .unwrap_or_else(|| format!("object {}", o.instance_id)),
+        room: false,
         model: o.model,
         pose: o.pose(),
         codes: o.codes,
@@ -240,6 +246,7 @@ pub fn scene_meshes(
             geometry: g,
             pose: spec.pose,
             colors,
+            room: spec.room,
         });
     }
     out
@@ -326,6 +333,7 @@ mod tests {
         assert_eq!(m.geometries.len(), 3, "room, ball, stool");
         assert_eq!(m.layers.len(), 4);
         assert_eq!(m.layers[0].name, "room");
+        assert!(m.layers[0].room && m.layers[1..].iter().all(|l| !l.room));
         assert_eq!(m.layers[1].geometry, m.layers[2].geometry);
         assert_eq!(m.layers[2].pose, scene.objects[1].pose());
         for l in &m.layers {

@@ -2,6 +2,10 @@
 //! vertex colours baked from the colour network (unlit, so viewers show them as they are), and the
 //! panorama camera as a perspective camera looking along its forward axis.
 //!
+//! The room's surface faces into the room and has a single-sided material of its own, so a viewer
+//! outside the room sees in through the walls and the ceiling nearest to it (a doll's house); the
+//! objects' material is double-sided.
+//!
 //! glTF is y-up and the room is z-up: every node hangs under a root node that turns +z into +y, so the
 //! positions and poses inside keep the room's own coordinates.
 
@@ -87,7 +91,7 @@ pub fn room_glb(meshes: &SceneMeshes, camera: &ExportCamera) -> Vec<u8> {
             "primitives": [{
                 "attributes": { "POSITION": position, "NORMAL": normal, "COLOR_0": color },
                 "indices": indices,
-                "material": 0,
+                "material": usize::from(layer.room),
                 "mode": 4,
             }],
         }));
@@ -125,19 +129,27 @@ pub fn room_glb(meshes: &SceneMeshes, camera: &ExportCamera) -> Vec<u8> {
     });
     if !gltf_meshes.is_empty() {
         document["meshes"] = Value::Array(gltf_meshes);
-        document["materials"] = json!([{
-            "name": "baked radiance",
-            "pbrMetallicRoughness": {
-                "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
-                "metallicFactor": 0.0,
-                "roughnessFactor": 1.0,
-            },
-            "doubleSided": true,
-            "extensions": { "KHR_materials_unlit": {} },
-        }]);
+        document["materials"] = json!([
+            baked_radiance("objects: baked radiance", true),
+            baked_radiance("room: baked radiance, seen from inside", false),
+        ]);
         document["extensionsUsed"] = json!(["KHR_materials_unlit"]);
     }
     builder.finish(document)
+}
+
+/// An unlit material showing the vertex colours as they are: material 0 for the objects, 1 for the room.
+fn baked_radiance(name: &str, double_sided: bool) -> Value {
+    json!({
+        "name": name,
+        "pbrMetallicRoughness": {
+            "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
+            "metallicFactor": 0.0,
+            "roughnessFactor": 1.0,
+        },
+        "doubleSided": double_sided,
+        "extensions": { "KHR_materials_unlit": {} },
+    })
 }
 
 #[cfg(test)]
@@ -219,6 +231,11 @@ mod tests {
                 let expected = DQuat::from_mat3(&pose.rotation).as_quat();
                 assert!(q.dot(expected).abs() > 1.0 - 1e-6);
                 let prim = mesh.primitives().next().unwrap();
+                assert_eq!(
+                    prim.material().double_sided(),
+                    !layer.room,
+                    "only the room is seen from one side"
+                );
                 let reader = prim.reader(|_| Some(blob));
                 let positions: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
                 let g = &meshes.geometries[layer.geometry];

@@ -42,9 +42,11 @@ impl BaselineCase {
         })
     }
 
-    /// The file name of the case's record under `bench/figures/`.
+    /// The file name of the case's record under `bench/figures/`: numbered after the other rows, in
+    /// the order of [`BASELINE_CASES`].
     pub fn record_name(&self) -> String {
-        format!("90-baseline-{}.json", self.name)
+        let order = BASELINE_CASES.iter().position(|c| *c == self.name);
+        format!("{}-baseline-{}.json", 90 + order.unwrap_or(0), self.name)
     }
 
     /// The training options of the case: steps only, no identification network.
@@ -297,5 +299,7 @@ mod tests {
     fn only_the_fast_presets_are_cases() {
         assert!(BaselineCase::named("tiny").is_some());
         assert!(BaselineCase::named("bedroom").is_none());
+        let studio = BaselineCase::named("studio").unwrap();
+        assert_eq!(studio.record_name(), "91-baseline-studio.json");
     }
 }

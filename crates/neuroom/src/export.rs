@@ -1,7 +1,8 @@
 //! `neuroom export`: a solved room as a glTF 2.0 binary (meshes from the SDFs, vertex colours under the
 //! solved lighting, placed by the solved poses, the camera) and as an offline HTML report (the input
-//! panorama, renders of the solved scene, a top-down map against the ground truth, the metrics) and, with
-//! the `rerun` feature, as a Rerun recording (`export/rrd.rs`).
+//! panorama and the solved scene's render under a slider, views of the solved scene, the same glTF in an
+//! interactive 3D view, a top-down map against the ground truth, the metrics) and, with the `rerun`
+//! feature, as a Rerun recording (`export/rrd.rs`).
 
 use std::path::{Path, PathBuf};
 
@@ -92,12 +93,15 @@ pub fn export(
     progress("placing the models");
     let scene = solved_scene(models, arrangement)?;
     let mut summary = ExportSummary::default();
-    let meshes = (options.gltf.is_some() || options.rrd.is_some()).then(|| {
-        progress("extracting coloured meshes");
-        scene_meshes(&scene.lit.scene, &object_names(&scene), &options.detail)
-    });
-    if let (Some(path), Some(meshes)) = (&options.gltf, &meshes) {
-        summary.gltf = Some(write_gltf(&scene, meshes, path)?);
+    let meshes = (options.gltf.is_some() || options.rrd.is_some() || options.report.is_some())
+        .then(|| {
+            progress("extracting coloured meshes");
+            scene_meshes(&scene.lit.scene, &object_names(&scene), &options.detail)
+        });
+    let camera = ExportCamera::from_panorama(scene.arrangement.camera_to_world);
+    let glb = meshes.as_ref().map(|m| room_glb(m, &camera));
+    if let (Some(path), Some(meshes), Some(glb)) = (&options.gltf, &meshes, &glb) {
+        summary.gltf = Some(write_gltf(meshes, glb, path)?);
     }
     #[cfg(feature = "rerun")]
     if let (Some(path), Some(meshes)) = (&options.rrd, &meshes) {
@@ -105,16 +109,17 @@ pub fn export(
         rrd::write_rrd(&scene, meshes, arrangement, options, path)?;
         summary.rrd = Some(path.clone());
     }
-    if let Some(path) = &options.report {
-        write_report(
+    if let (Some(path), Some(glb)) = (&options.report, &glb) {
+        let report = compose_report(
             &scene,
             models,
             arrangement,
             options,
-            path,
+            glb,
             progress,
             &mut summary,
         )?;
+        atomic_write(path, report.html().as_bytes())?;
         summary.report = Some(path.clone());
     }
     Ok(summary)
@@ -130,14 +135,13 @@ fn object_names(scene: &SolvedScene) -> Vec<String> {
         .collect()
 }
 
-/// Writes the glTF binary of `meshes`; returns its path, vertex and triangle counts.
+/// Writes `glb`, the glTF binary of `meshes`; returns its path, vertex and triangle counts.
 fn write_gltf(
-    scene: &SolvedScene,
     meshes: &SceneMeshes,
+    glb: &[u8],
     path: &Path,
 ) -> anyhow::Result<(PathBuf, usize, usize)> {
-    let camera = ExportCamera::from_panorama(scene.arrangement.camera_to_world);
-    atomic_write(path, &room_glb(meshes, &camera))?;
+    atomic_write(path, glb)?;
     let count = |f: &dyn Fn(&Geometry) -> usize| {
         meshes
             .layers
@@ -317,16 +321,16 @@ fn map_boxes(arrangement: &Arrangement, sizes: &[(u16, DVec3)]) -> Vec<MapBox> {
         .collect()
 }
 
-/// Renders, measures and writes the report.
-fn write_report(
+/// Renders and measures the report's sections; `glb` is the solved room's glTF binary for the 3D view.
+fn compose_report(
     scene: &SolvedScene,
     models: &Path,
     arrangement_path: &Path,
     options: &ExportOptions,
-    path: &Path,
+    glb: &[u8],
     progress: &mut dyn FnMut(&str),
     summary: &mut ExportSummary,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<Report> {
     let solved = &scene.arrangement;
     let truth = options.truth.as_deref().map(read_arrangement).transpose()?;
     let room = find_room(options);
@@ -346,79 +350,34 @@ fn write_report(
         )),
     )];
     progress("rendering the solved panorama");
-    let render = render_view(
+    let input = find_panorama(options, arrangement_path, solved, truth.as_ref());
+    sections.extend(panorama_sections(
         scene,
-        &ViewCamera::Panorama {
-            width: options.render_width,
-        },
-    )?
-    .rgb;
-    let mut figures = Vec::new();
-    if let Some(p) = find_panorama(options, arrangement_path, solved, truth.as_ref()) {
-        figures.push(file_figure(&p, format!("input panorama {}", p.display()))?);
-        let input = read_rgb(&p)?.image;
-        if let Some(small) = input.box_downsample(render.width, render.height) {
-            summary.image_agreement = Some((psnr(&small, &render), ssim(&small, &render)));
-        }
-    }
-    figures.push(Figure::png(
-        "the solved scene rendered from the panorama camera",
-        &render,
+        input.as_deref(),
+        options,
+        summary,
     )?);
-    sections.push((
-        "Input and solved panorama".into(),
-        Section::Figures(figures),
-    ));
-    if let Some((p, s)) = summary.image_agreement {
-        sections.push((
-            "Image agreement".into(),
-            Section::Text(format!(
-                "Solved render against the input at {}×{}: PSNR {p:.2} dB, SSIM {s:.3}.",
-                render.width, render.height
-            )),
-        ));
-    }
     if options.views > 0 {
         progress("rendering views of the solved scene");
-        let (lo, hi) = room_box(scene);
-        let lens = Lens::Pinhole {
-            width: 400,
-            height: 300,
-            fov_deg: 75.0,
-        };
-        let mut views = Vec::new();
-        for (k, pose) in generate(Generated::Orbit(options.views), lo, hi)?
-            .iter()
-            .enumerate()
-        {
-            let (camera, camera_to_world) = lens.camera(pose)?;
-            let rgb = crate::view::render_camera(scene, &camera, &camera_to_world).rgb;
-            views.push(Figure::png(format!("view {} of an orbit", k + 1), &rgb)?);
-        }
-        sections.push(("Views of the solved scene".into(), Section::Figures(views)));
+        sections.push((
+            "Views of the solved scene".into(),
+            views_section(scene, options.views)?,
+        ));
     }
+    sections.push((
+        "The solved room in 3D".into(),
+        Section::Model3d {
+            glb: glb.to_vec(),
+            caption: "the glTF export: meshes from the SDFs coloured under the solved lighting; drag to \
+                      orbit, scroll to zoom; the room's walls are seen from inside only, so those nearest \
+                      to you let you look in"
+                .into(),
+        },
+    ));
     progress("drawing the map and the metrics");
-    let (lo, hi) = room_box(scene);
-    let camera = &solved.camera_to_world;
-    let map = TopDown {
-        room: (lo.truncate(), hi.truncate()),
-        solved: map_boxes(solved, &sizes),
-        truth: truth
-            .as_ref()
-            .map_or_else(Vec::new, |t| map_boxes(t, &sizes)),
-        camera: Some((camera.translation, camera.transform_vector(DVec3::X))),
-    };
-    let caption = if truth.is_some() {
-        "top-down map: solved boxes filled, ground truth dashed, in the same colour per object"
-    } else {
-        "top-down map of the solved boxes"
-    };
     sections.push((
         "Top-down map".into(),
-        Section::Svg {
-            svg: map.svg(),
-            caption: caption.into(),
-        },
+        map_section(scene, truth.as_ref(), &sizes),
     ));
     if let Some(t) = &truth {
         let score = score(solved, t, &sizes, &names);
@@ -432,12 +391,108 @@ fn write_report(
         "Solved objects".into(),
         Section::Table(object_table(solved, &names)),
     ));
-    let report = Report {
+    Ok(Report {
         title: format!("neuroom: {}", arrangement_path.display()),
         sections,
+    })
+}
+
+/// The solved panorama render, under a slider against the `input` panorama where there is one, and how
+/// well the two agree (also kept in `summary`).
+fn panorama_sections(
+    scene: &SolvedScene,
+    input: Option<&Path>,
+    options: &ExportOptions,
+    summary: &mut ExportSummary,
+) -> anyhow::Result<Vec<(String, Section)>> {
+    let render = render_view(
+        scene,
+        &ViewCamera::Panorama {
+            width: options.render_width,
+        },
+    )?
+    .rgb;
+    let solved = Figure::png(
+        "the solved scene rendered from the panorama camera",
+        &render,
+    )?;
+    let Some(path) = input else {
+        return Ok(vec![(
+            "Solved panorama".into(),
+            Section::Figures(vec![solved]),
+        )]);
     };
-    atomic_write(path, report.html().as_bytes())?;
-    Ok(())
+    let small = read_rgb(path)?
+        .image
+        .box_downsample(render.width, render.height);
+    summary.image_agreement = small.map(|small| (psnr(&small, &render), ssim(&small, &render)));
+    let mut sections = vec![(
+        "Input and solved panorama".into(),
+        Section::Compare {
+            before: file_figure(path, format!("input panorama {}", path.display()))?,
+            after: solved,
+            caption: format!(
+                "left of the line: the input panorama {}; right of it: the solved scene rendered from \
+                 the panorama camera; drag the slider to move the line",
+                path.display()
+            ),
+        },
+    )];
+    if let Some((p, s)) = summary.image_agreement {
+        sections.push((
+            "Image agreement".into(),
+            Section::Text(format!(
+                "Solved render against the input at {}×{}: PSNR {p:.2} dB, SSIM {s:.3}.",
+                render.width, render.height
+            )),
+        ));
+    }
+    Ok(sections)
+}
+
+/// `count` pinhole views of the solved scene from an orbit around the room.
+fn views_section(scene: &SolvedScene, count: usize) -> anyhow::Result<Section> {
+    let (lo, hi) = room_box(scene);
+    let lens = Lens::Pinhole {
+        width: 400,
+        height: 300,
+        fov_deg: 75.0,
+    };
+    let mut views = Vec::new();
+    for (k, pose) in generate(Generated::Orbit(count), lo, hi)?
+        .iter()
+        .enumerate()
+    {
+        let (camera, camera_to_world) = lens.camera(pose)?;
+        let rgb = crate::view::render_camera(scene, &camera, &camera_to_world).rgb;
+        views.push(Figure::png(format!("view {} of an orbit", k + 1), &rgb)?);
+    }
+    Ok(Section::Figures(views))
+}
+
+/// The top-down map of the solved boxes, with the ground truth's where given.
+fn map_section(
+    scene: &SolvedScene,
+    truth: Option<&Arrangement>,
+    sizes: &[(u16, DVec3)],
+) -> Section {
+    let (lo, hi) = room_box(scene);
+    let camera = &scene.arrangement.camera_to_world;
+    let map = TopDown {
+        room: (lo.truncate(), hi.truncate()),
+        solved: map_boxes(&scene.arrangement, sizes),
+        truth: truth.map_or_else(Vec::new, |t| map_boxes(t, sizes)),
+        camera: Some((camera.translation, camera.transform_vector(DVec3::X))),
+    };
+    let caption = if truth.is_some() {
+        "top-down map: solved boxes filled, ground truth dashed, in the same colour per object"
+    } else {
+        "top-down map of the solved boxes"
+    };
+    Section::Svg {
+        svg: map.svg(),
+        caption: caption.into(),
+    }
 }
 
 /// Scores the solved arrangement against the truth (boxes of the true sizes).
@@ -517,6 +572,8 @@ mod tests {
             3,
             "input, panorama, one view"
         );
+        assert!(html.contains(r#"class="compare""#) && html.contains(r#"type="range""#));
+        assert_eq!(html.matches("data:model/gltf-binary;base64,").count(), 1);
         assert!(html.contains("<svg") && html.contains(r#"class="truth""#));
         assert!(html.contains("ball_1 (1)"));
     }

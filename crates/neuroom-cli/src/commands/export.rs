@@ -8,8 +8,9 @@ use neuroom::export::MeshDetail;
 /// Export a solved room: `--gltf` writes one glTF 2.0 binary (the room and every object as meshes
 /// extracted from their SDFs, vertex colours from the colour network under the solved lighting, objects
 /// placed by their poses, the panorama camera); `--report` writes a self-contained HTML page (the input
-/// panorama, renders of the solved scene, a top-down map against the ground truth, the metrics) that
-/// opens offline in any browser; `--rrd` writes a Rerun recording (the same meshes, the solved boxes and
+/// panorama and the solved scene's render overlaid under a slider, views of the solved scene, the same
+/// glTF in a 3D view to orbit and zoom, a top-down map against the ground truth, the metrics) that opens
+/// offline in any browser with WebGL; `--rrd` writes a Rerun recording (the same meshes, the solved boxes and
 /// the ground truth's, the camera, the input panorama) that opens with `rerun` 0.36 (`pip install
 /// rerun-sdk==0.36.3`). `--rrd` needs a neuroom built with `--features rerun`.
 ///
