@@ -131,7 +131,7 @@ figcaption{font-size:90%;color:#555}\
 .stack .after{position:absolute;inset:0;height:100%;clip-path:inset(0 0 0 var(--cut))}\
 .stack::after{content:'';position:absolute;top:0;bottom:0;left:var(--cut);border-left:2px solid #fff;box-shadow:0 0 3px #000}\
 .compare input{width:100%;margin:.5em 0}\
-model-viewer{display:block;width:100%;height:auto;aspect-ratio:16/9;max-height:85vh;background:#eef1f4;border:1px solid #ccc;box-sizing:border-box}\
+model-viewer{display:block;width:100%;height:min(675px,56vw,85vh);background:#eef1f4;border:1px solid #ccc;box-sizing:border-box}\
 table{border-collapse:collapse;margin-bottom:1em}\
 td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}\
 th{background:#eee}td:first-child,th:first-child{text-align:left}";

@@ -41,6 +41,9 @@ pub struct ExportOptions {
     pub panorama: Option<PathBuf>,
     /// Mesh resolution (glTF and Rerun).
     pub detail: MeshDetail,
+    /// Mesh resolution of the report's 3D view: coarser than the glTF's, as the page carries the
+    /// meshes inline and a browser must load them whole.
+    pub report_detail: MeshDetail,
     /// Width of the report's panorama render.
     pub render_width: u32,
     /// Number of pinhole views of the solved scene in the report.
@@ -57,6 +60,7 @@ impl Default for ExportOptions {
             room: None,
             panorama: None,
             detail: MeshDetail::default(),
+            report_detail: MeshDetail::preview(),
             render_width: 512,
             views: 2,
         }
@@ -93,15 +97,14 @@ pub fn export(
     progress("placing the models");
     let scene = solved_scene(models, arrangement)?;
     let mut summary = ExportSummary::default();
-    let meshes = (options.gltf.is_some() || options.rrd.is_some() || options.report.is_some())
-        .then(|| {
-            progress("extracting coloured meshes");
-            scene_meshes(&scene.lit.scene, &object_names(&scene), &options.detail)
-        });
+    let names = object_names(&scene);
+    let meshes = (options.gltf.is_some() || options.rrd.is_some()).then(|| {
+        progress("extracting coloured meshes");
+        scene_meshes(&scene.lit.scene, &names, &options.detail)
+    });
     let camera = ExportCamera::from_panorama(scene.arrangement.camera_to_world);
-    let glb = meshes.as_ref().map(|m| room_glb(m, &camera));
-    if let (Some(path), Some(meshes), Some(glb)) = (&options.gltf, &meshes, &glb) {
-        summary.gltf = Some(write_gltf(meshes, glb, path)?);
+    if let (Some(path), Some(meshes)) = (&options.gltf, &meshes) {
+        summary.gltf = Some(write_gltf(meshes, &room_glb(meshes, &camera), path)?);
     }
     #[cfg(feature = "rerun")]
     if let (Some(path), Some(meshes)) = (&options.rrd, &meshes) {
@@ -109,13 +112,16 @@ pub fn export(
         rrd::write_rrd(&scene, meshes, arrangement, options, path)?;
         summary.rrd = Some(path.clone());
     }
-    if let (Some(path), Some(glb)) = (&options.report, &glb) {
+    if let Some(path) = &options.report {
+        progress("extracting coarse meshes for the report's 3D view");
+        let coarse = scene_meshes(&scene.lit.scene, &names, &options.report_detail);
+        let glb = room_glb(&coarse, &camera);
         let report = compose_report(
             &scene,
             models,
             arrangement,
             options,
-            glb,
+            &glb,
             progress,
             &mut summary,
         )?;
@@ -533,15 +539,17 @@ mod tests {
             &Image::filled(64, 32, [0.3f32; 3]),
         )
         .unwrap();
+        let coarse = MeshDetail {
+            object_cell_m: 0.05,
+            room_cell_m: 0.2,
+            ..MeshDetail::default()
+        };
         let options = ExportOptions {
             gltf: Some(dir.path().join("room.glb")),
             report: Some(dir.path().join("report.html")),
             truth: Some(truth_path),
-            detail: MeshDetail {
-                object_cell_m: 0.05,
-                room_cell_m: 0.2,
-                ..MeshDetail::default()
-            },
+            detail: coarse,
+            report_detail: coarse,
             render_width: 32,
             views: 1,
             ..ExportOptions::default()

@@ -65,7 +65,7 @@ fn write_tiny_report(dir: &Path) -> PathBuf {
     .unwrap();
     let options = ExportOptions {
         report: Some(dir.join("report.html")),
-        detail: MeshDetail {
+        report_detail: MeshDetail {
             object_cell_m: 0.05,
             room_cell_m: 0.2,
             ..MeshDetail::default()

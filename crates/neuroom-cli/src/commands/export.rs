@@ -81,6 +81,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         render_width: args.width,
         views: args.views,
+        ..ExportOptions::default()
     };
     let start = std::time::Instant::now();
     let summary =
