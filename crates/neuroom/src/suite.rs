@@ -47,14 +47,8 @@ impl SuiteTraining {
     /// The training options of these budgets: steps only, no identification network (the suite
     /// measures the default detector).
     pub fn options(&self) -> TrainOptions {
-        TrainOptions {
-            object_steps: Some(self.object_steps),
-            background_steps: Some(self.background_steps),
-            threads: self.threads,
-            seed: Some(self.seed),
-            identify_seconds: Some(0.0),
-            ..TrainOptions::default()
-        }
+        let (objects, background) = (self.object_steps, self.background_steps);
+        TrainOptions::steps_only(objects, background, self.seed, self.threads)
     }
 }
 

@@ -33,6 +33,20 @@ pub struct TrainOptions {
 }
 
 impl TrainOptions {
+    /// Step budgets only, a fixed seed and thread count, and no identification network: what the
+    /// benchmarks train with (the validation suite, the baseline cases), so the same options give the
+    /// same models on any load.
+    pub fn steps_only(object_steps: u64, background_steps: u64, seed: u64, threads: usize) -> Self {
+        Self {
+            object_steps: Some(object_steps),
+            background_steps: Some(background_steps),
+            threads,
+            seed: Some(seed),
+            identify_seconds: Some(0.0),
+            ..Self::default()
+        }
+    }
+
     /// The training configuration these options give. Budgets are steps unless a time budget is given:
     /// a model then trains exactly its steps, whatever the machine's load, and the same options give the
     /// same models. A time budget given alone ends the run by the clock; given with steps, whichever

@@ -18,10 +18,10 @@ pub struct RecordArgs {
 }
 
 impl RecordArgs {
-    /// A record of `figures` measured by this process, labelled `--label` or else `default_label`.
+    /// A record of `figures` measured by this process, labelled `default_label` (`--label` replaces it
+    /// when the record is written).
     pub fn record(&self, default_label: &str, figures: LocateFigures) -> FigureRecord {
-        let label = self.label.as_deref().unwrap_or(default_label);
-        FigureRecord::measured_now(label, invocation(), figures)
+        FigureRecord::measured_now(default_label, invocation(), figures)
     }
 
     /// Writes `record` where `--record` says, with `--label` when given; nothing without `--record`.
