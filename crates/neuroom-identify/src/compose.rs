@@ -11,7 +11,7 @@ use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
 use neuroom_panorama::ObjectModel;
-use neuroom_panorama::cloud::{ZBuffer, splat};
+use neuroom_panorama::cloud::{SplatView, ZBuffer, splat};
 use neuroom_panorama::database::{Database, DatabaseEntry};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -223,16 +223,15 @@ fn draw_objects(
         let gain = rng.random_range(config.object_gain[0]..=config.object_gain[1]);
         let shift: [f32; 3] =
             std::array::from_fn(|_| rng.random_range(-1.0..=1.0) * config.object_shift);
-        let sil = splat(
-            &models[*m].coarse,
-            pose,
-            &camera,
-            w,
-            h,
-            &entry.depth,
-            config.occlusion_tolerance,
-            &mut buffer,
-        );
+        let view = SplatView {
+            camera_to_world: &camera,
+            width: w,
+            height: h,
+            room_depth: &entry.depth,
+            tolerance: config.occlusion_tolerance,
+            supersample: 1,
+        };
+        let sil = splat(&models[*m].coarse, pose, &view, &mut buffer);
         for k in 0..sil.pixels.len() {
             let p = sil.pixels[k] as usize;
             if sil.depths[k] >= nearest[p] {
@@ -242,11 +241,9 @@ fn draw_objects(
             let c = sil.colors[k].to_array();
             let toned: [f32; 3] = std::array::from_fn(|i| (c[i] + shift[i]).clamp(0.0, 1.0));
             let object = relit(toned, light.map(|l| l * gain));
-            query[p] = if sil.rim[k] {
-                std::array::from_fn(|i| 0.5 * (object[i] + background[p][i]))
-            } else {
-                object
-            };
+            let cover = sil.cover[k];
+            query[p] =
+                std::array::from_fn(|i| cover * object[i] + (1.0 - cover) * background[p][i]);
             labels[p] = 1 + *m as u8;
         }
     }

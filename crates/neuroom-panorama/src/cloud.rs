@@ -158,51 +158,148 @@ pub fn carve(cloud: Cloud, views: &[FreeSpace], tolerance: f32) -> Cloud {
 pub struct Silhouette {
     /// Linear pixel indices, each once.
     pub pixels: Vec<u32>,
-    /// Colour of the nearest point per pixel.
+    /// The object's colour per pixel: the mean over the parts of the pixel it covers.
     pub colors: Vec<Vec3>,
-    /// Whether the pixel lies on the silhouette's rim (a 4-neighbour is not covered): the object
-    /// covers only part of it, and a panorama pixel there mixes it with what lies behind.
-    pub rim: Vec<bool>,
+    /// The fraction of each pixel the object covers, in (0, 1]: a panorama pixel on the rim or across
+    /// a thin leg mixes the object with what lies behind it. Supersampled, it is the share of covered
+    /// sub-pixels; otherwise 1 inside and [`RIM_COVER`] on the rim (a 4-neighbour not covered).
+    pub cover: Vec<f32>,
     /// Distance of the nearest point per pixel (metres).
     pub depths: Vec<f32>,
-    /// The nearest point's normal (world frame) per pixel: which light it faces.
+    /// The object's normal (world frame) per pixel, the mean over its covered parts: which light it
+    /// faces.
     pub normals: Vec<Vec3>,
 }
+
+/// The share of a rim pixel an object covers when the splat is not supersampled: half, on average.
+pub const RIM_COVER: f32 = 0.5;
 
 /// Cosine between a point's normal and its viewing ray above which it counts as a back face: slightly
 /// positive, so that points on the silhouette's rim stay.
 const BACK_FACE_COSINE: f32 = 0.1;
 
-/// Reusable z-buffer for [`splat`].
+/// Where a cloud is splatted: the panorama's camera and size, and the scene's surfaces that hide what
+/// lies behind them.
+#[derive(Clone, Copy, Debug)]
+pub struct SplatView<'a> {
+    /// The panorama's camera.
+    pub camera_to_world: &'a Pose,
+    /// Panorama width (pixels).
+    pub width: usize,
+    /// Panorama height (pixels).
+    pub height: usize,
+    /// Distance of the scene's surface per pixel (metres; 0 = no surface): points farther than it
+    /// (plus `tolerance`) are hidden.
+    pub room_depth: &'a [f32],
+    /// Depth tolerance of that occlusion (metres).
+    pub tolerance: f32,
+    /// Sub-pixels per pixel along each axis (1 = none): with `n`, the cloud is splatted on an
+    /// `n`-times finer grid and each pixel's cover, colour and normal are taken over its `n × n`
+    /// sub-pixels, as a camera's pixel integrates what it sees. Thin parts (legs, rails, the gaps
+    /// between them) then mix with the room behind them as they do in the panorama.
+    pub supersample: usize,
+}
+
+/// Reusable buffers for [`splat`].
 #[derive(Clone, Debug, Default)]
 pub struct ZBuffer {
     depth: Vec<f32>,
     color: Vec<Vec3>,
     normal: Vec<Vec3>,
     touched: Vec<u32>,
+    /// Per pixel of the panorama, its place in the silhouette being pooled (supersampled splats
+    /// only; `u32::MAX` between splats).
+    slot: Vec<u32>,
 }
 
-/// Projects `cloud` placed at `object_to_world` into a `width × height` panorama at `camera_to_world`.
-/// Points farther than the scene's surface at `room_depth` (plus `tolerance`; 0 = no surface) are
-/// hidden by it; each point covers a square of pixels as wide as its spacing appears. Points whose
-/// normal faces away from the camera are skipped: the cloud is sparse, and back faces would show
-/// through the gaps between front points.
-#[allow(clippy::too_many_arguments)]
+impl ZBuffer {
+    /// Runs `f` with this thread's buffer: a panorama's buffers are megabytes, and a search splats
+    /// thousands of hypotheses, so each thread keeps one instead of allocating and clearing one per
+    /// splat. A nested call gets a fresh buffer.
+    pub fn with_thread_local<R>(f: impl FnOnce(&mut ZBuffer) -> R) -> R {
+        thread_local! {
+            static BUFFER: std::cell::RefCell<ZBuffer> = std::cell::RefCell::default();
+        }
+        BUFFER.with(|cell| match cell.try_borrow_mut() {
+            Ok(mut buffer) => f(&mut buffer),
+            Err(_) => f(&mut ZBuffer::default()),
+        })
+    }
+}
+
+/// Projects `cloud` placed at `object_to_world` into the panorama of `view`. Points farther than the
+/// scene's surface are hidden by it; each point covers a square of (sub-)pixels as wide as its spacing
+/// appears. Points whose normal faces away from the camera are skipped: the cloud is sparse, and back
+/// faces would show through the gaps between front points.
 pub fn splat(
     cloud: &Cloud,
     object_to_world: &Pose,
-    camera_to_world: &Pose,
-    width: usize,
-    height: usize,
-    room_depth: &[f32],
-    tolerance: f32,
+    view: &SplatView,
     buffer: &mut ZBuffer,
 ) -> Silhouette {
+    let grid = SubGrid::of(view);
+    draw_points(cloud, object_to_world, view, &grid, buffer);
+    // Twice: where a gap row crosses a gap column, the first pass leaves the crossing pixel.
+    for _ in 0..2 {
+        fill_gaps(buffer, view, &grid);
+    }
+    let out = if grid.factor == 1 {
+        whole_pixels(buffer, &grid)
+    } else {
+        pooled_pixels(buffer, view, &grid)
+    };
+    for &i in &buffer.touched {
+        buffer.depth[i as usize] = f32::INFINITY;
+    }
+    buffer.touched.clear();
+    out
+}
+
+/// The (sub-)pixel grid a splat draws on.
+struct SubGrid {
+    width: usize,
+    height: usize,
+    factor: usize,
+}
+
+impl SubGrid {
+    fn of(view: &SplatView) -> Self {
+        let factor = view.supersample.max(1);
+        Self {
+            width: view.width * factor,
+            height: view.height * factor,
+            factor,
+        }
+    }
+
+    /// The panorama pixel sub-pixel `i` lies in.
+    fn pixel(&self, i: usize) -> usize {
+        let (u, v) = (i % self.width, i / self.width);
+        (v / self.factor) * (self.width / self.factor) + u / self.factor
+    }
+
+    /// Whether a point at `dist` on sub-pixel `i` lies behind the scene's surface there.
+    fn hidden(&self, view: &SplatView, i: usize, dist: f32) -> bool {
+        let wall = view.room_depth[self.pixel(i)];
+        wall > 0.0 && dist > wall + view.tolerance
+    }
+}
+
+/// Draws the cloud's front points into the z-buffer of `grid`.
+fn draw_points(
+    cloud: &Cloud,
+    object_to_world: &Pose,
+    view: &SplatView,
+    grid: &SubGrid,
+    buffer: &mut ZBuffer,
+) {
+    let (width, height) = (grid.width, grid.height);
     if buffer.depth.len() != width * height {
         buffer.depth = vec![f32::INFINITY; width * height];
         buffer.color = vec![Vec3::ZERO; width * height];
         buffer.normal = vec![Vec3::ZERO; width * height];
     }
+    let camera_to_world = view.camera_to_world;
     let rc = camera_to_world.rotation_f32().transpose();
     let m: Mat3 = rc * object_to_world.rotation_f32();
     let b: Vec3 = rc * (object_to_world.translation - camera_to_world.translation).as_vec3();
@@ -219,7 +316,7 @@ pub fn splat(
         };
         let r = ((0.5 * cloud.spacing / dist.max(1e-3)) / pixel_angle)
             .floor()
-            .min(3.0) as isize;
+            .min(3.0 * grid.factor as f32) as isize;
         let (u0, v0) = (pix.x.floor() as isize, pix.y.floor() as isize);
         for dv in -r..=r {
             let v = v0 + dv;
@@ -229,8 +326,7 @@ pub fn splat(
             for du in -r..=r {
                 let u = (u0 + du).rem_euclid(width as isize) as usize;
                 let i = v as usize * width + u;
-                let wall = room_depth[i];
-                if wall > 0.0 && dist > wall + tolerance {
+                if grid.hidden(view, i, dist) {
                     continue;
                 }
                 if dist < buffer.depth[i] {
@@ -244,41 +340,71 @@ pub fn splat(
             }
         }
     }
-    // Twice: where a gap row crosses a gap column, the first pass leaves the crossing pixel.
-    for _ in 0..2 {
-        fill_gaps(buffer, width, height, room_depth, tolerance);
-    }
+}
+
+/// The silhouette of a splat drawn on whole pixels: each pixel its nearest point's.
+fn whole_pixels(buffer: &ZBuffer, grid: &SubGrid) -> Silhouette {
     let mut out = Silhouette::default();
     for &i in &buffer.touched {
         let i = i as usize;
-        let rim = !neighbours(i, width, height).all(|j| buffer.depth[j].is_finite());
+        let rim = !neighbours(i, grid.width, grid.height).all(|j| buffer.depth[j].is_finite());
         out.pixels.push(i as u32);
         out.colors.push(buffer.color[i]);
-        out.rim.push(rim);
+        out.cover.push(if rim { RIM_COVER } else { 1.0 });
         out.depths.push(buffer.depth[i]);
         out.normals.push(buffer.normal[i]);
     }
-    for &i in &buffer.touched {
-        buffer.depth[i as usize] = f32::INFINITY;
+    out
+}
+
+/// The silhouette of a supersampled splat: per pixel, the share of its sub-pixels covered, their mean
+/// colour and normal, and the nearest depth.
+fn pooled_pixels(buffer: &mut ZBuffer, view: &SplatView, grid: &SubGrid) -> Silhouette {
+    let n = view.width * view.height;
+    if buffer.slot.len() != n {
+        buffer.slot = vec![u32::MAX; n];
     }
-    buffer.touched.clear();
+    let mut out = Silhouette::default();
+    let mut count: Vec<u32> = Vec::new();
+    for &i in &buffer.touched {
+        let i = i as usize;
+        let p = grid.pixel(i);
+        let k = match buffer.slot[p] {
+            u32::MAX => {
+                buffer.slot[p] = out.pixels.len() as u32;
+                out.pixels.push(p as u32);
+                out.colors.push(Vec3::ZERO);
+                out.normals.push(Vec3::ZERO);
+                out.depths.push(f32::INFINITY);
+                count.push(0);
+                out.pixels.len() - 1
+            }
+            k => k as usize,
+        };
+        out.colors[k] += buffer.color[i];
+        out.normals[k] += buffer.normal[i];
+        out.depths[k] = out.depths[k].min(buffer.depth[i]);
+        count[k] += 1;
+    }
+    let per_pixel = (grid.factor * grid.factor) as f32;
+    for (k, &c) in count.iter().enumerate() {
+        buffer.slot[out.pixels[k] as usize] = u32::MAX;
+        out.colors[k] /= c as f32;
+        out.normals[k] = out.normals[k].normalize_or_zero();
+        out.cover.push(c as f32 / per_pixel);
+    }
     out
 }
 
 /// Depths of two neighbours across a gap may differ by this fraction and still close it.
 const GAP_DEPTH_RATIO: f32 = 0.1;
 
-/// Covers the one-pixel gaps between splatted points: an uncovered pixel whose two horizontal or two
-/// vertical neighbours are covered at about the same depth takes the nearer neighbour's depth and
-/// colour (unless the scene's surface hides it). A cloud's grid points lie about a pixel apart at the
-/// distance where their footprint shrinks to one pixel, and the room showed through the holes.
-fn fill_gaps(
-    buffer: &mut ZBuffer,
-    width: usize,
-    height: usize,
-    room_depth: &[f32],
-    tolerance: f32,
-) {
+/// Covers the one-(sub-)pixel gaps between splatted points: an uncovered sub-pixel whose two horizontal
+/// or two vertical neighbours are covered at about the same depth takes the nearer neighbour's depth
+/// and colour (unless the scene's surface hides it). A cloud's grid points lie about a pixel apart at
+/// the distance where their footprint shrinks to one pixel, and the room showed through the holes.
+fn fill_gaps(buffer: &mut ZBuffer, view: &SplatView, grid: &SubGrid) {
+    let (width, height) = (grid.width, grid.height);
     let depth = &buffer.depth;
     let across = |a: usize, b: usize| -> Option<usize> {
         let (da, db) = (depth[a], depth[b]);
@@ -299,11 +425,10 @@ fn fill_gaps(
             let vertical = (jv > 0 && jv + 1 < height)
                 .then(|| across(j - width, j + width))
                 .flatten();
-            if let Some(source) = horizontal.or(vertical) {
-                let wall = room_depth[j];
-                if wall <= 0.0 || depth[source] <= wall + tolerance {
-                    fills.push((j, source));
-                }
+            if let Some(source) = horizontal.or(vertical)
+                && !grid.hidden(view, j, depth[source])
+            {
+                fills.push((j, source));
             }
         }
     }
@@ -424,7 +549,15 @@ mod tests {
         let camera = Pose::IDENTITY;
         let mut buffer = ZBuffer::default();
         let far = vec![10.0; w * h];
-        let seen = splat(&cloud, &object, &camera, w, h, &far, 0.1, &mut buffer);
+        let at = |room_depth| SplatView {
+            camera_to_world: &camera,
+            width: w,
+            height: h,
+            room_depth,
+            tolerance: 0.1,
+            supersample: 1,
+        };
+        let seen = splat(&cloud, &object, &at(&far), &mut buffer);
         let centre = (h / 2) * w + w / 2;
         assert!(seen.pixels.contains(&(centre as u32)));
         // The cube spans about 14° of 360°: a few pixels of 64 across.
@@ -434,25 +567,105 @@ mod tests {
             seen.pixels.len()
         );
         let near = vec![1.0; w * h];
-        let hidden = splat(&cloud, &object, &camera, w, h, &near, 0.1, &mut buffer);
+        let hidden = splat(&cloud, &object, &at(&near), &mut buffer);
         assert!(hidden.pixels.is_empty());
     }
 
     /// `cloud` seen by a camera at the origin, standing 2 m ahead along +x, the room's walls far away.
     fn splat_two_metres_ahead(cloud: &Cloud, w: usize, h: usize) -> Silhouette {
+        supersampled_two_metres_ahead(cloud, w, h, 1)
+    }
+
+    fn supersampled_two_metres_ahead(
+        cloud: &Cloud,
+        w: usize,
+        h: usize,
+        supersample: usize,
+    ) -> Silhouette {
         let object = Pose::from_yaw_translation(0.0, DVec3::new(2.0, 0.0, 0.0));
         let far = vec![10.0; w * h];
         let mut buffer = ZBuffer::default();
-        splat(
-            cloud,
-            &object,
-            &Pose::IDENTITY,
-            w,
-            h,
-            &far,
-            0.1,
-            &mut buffer,
-        )
+        let view = SplatView {
+            camera_to_world: &Pose::IDENTITY,
+            width: w,
+            height: h,
+            room_depth: &far,
+            tolerance: 0.1,
+            supersample,
+        };
+        splat(cloud, &object, &view, &mut buffer)
+    }
+
+    /// A flat panel facing −x (towards a camera on that side), `width` × `height` metres, its points
+    /// `spacing` apart, white.
+    fn panel(width: f32, height: f32, spacing: f32) -> Cloud {
+        let (nu, nv) = (
+            (width / spacing).round() as usize + 1,
+            (height / spacing).round() as usize + 1,
+        );
+        let points: Vec<Vec3> = (0..nu * nv)
+            .map(|k| {
+                let (a, b) = ((k % nu) as f32, (k / nu) as f32);
+                Vec3::new(0.0, a * spacing - 0.5 * width, b * spacing - 0.5 * height)
+            })
+            .collect();
+        Cloud {
+            normals: vec![-Vec3::X; points.len()],
+            colors: vec![Vec3::ONE; points.len()],
+            points,
+            spacing,
+        }
+    }
+
+    #[test]
+    fn supersampled_pixels_are_covered_in_the_share_the_object_fills() {
+        let (w, h) = (512, 256);
+        let pixel = std::f32::consts::TAU / w as f32;
+        // A 0.5 m square at 2 m: about 20 × 20 pixels, each inside one fully covered.
+        let square = supersampled_two_metres_ahead(&panel(0.5, 0.5, 0.005), w, h, 4);
+        let area = (0.5 / 2.0 / pixel).powi(2);
+        let covered: f32 = square.cover.iter().sum();
+        assert!(
+            (covered / area - 1.0).abs() < 0.1,
+            "{covered} of {area} pixels"
+        );
+        let full = square.cover.iter().filter(|&&c| c == 1.0).count();
+        assert!(full as f32 > 0.75 * area, "{full} pixels fully covered");
+        // A leg 6 mm wide at 2 m spans a quarter of a pixel: no pixel is more than half covered,
+        // where whole pixels take it as a rim half covering every pixel it touches.
+        let leg = supersampled_two_metres_ahead(&panel(0.006, 0.5, 0.002), w, h, 4);
+        let widest = leg.cover.iter().cloned().fold(0.0, f32::max);
+        assert!(widest <= 0.5, "a leg's pixel covered {widest}");
+        // A point covers at least the sub-pixel it falls in, so the leg's cover is its area widened
+        // by up to one sub-pixel (a quarter of a pixel, as wide as the leg itself).
+        let covered: f32 = leg.cover.iter().sum();
+        let area = 0.006 * 0.5 / (2.0 * pixel).powi(2);
+        assert!(
+            covered < 2.5 * area && covered > 0.5 * area,
+            "{covered} of {area} pixels"
+        );
+        let whole = splat_two_metres_ahead(&panel(0.006, 0.5, 0.002), w, h);
+        assert!(whole.cover.iter().all(|&c| c == RIM_COVER));
+    }
+
+    #[test]
+    fn a_supersampled_pixel_takes_the_mean_colour_of_what_covers_it() {
+        // Left half red, right half blue, the boundary inside a pixel column.
+        let mut cloud = panel(0.5, 0.5, 0.005);
+        for (p, c) in cloud.points.iter().zip(&mut cloud.colors) {
+            *c = if p.y < 0.0 { Vec3::X } else { Vec3::Z };
+        }
+        let seen = supersampled_two_metres_ahead(&cloud, 512, 256, 4);
+        let mixed = seen
+            .colors
+            .iter()
+            .zip(&seen.cover)
+            .filter(|(c, cover)| **cover == 1.0 && c.x > 0.1 && c.z > 0.1)
+            .count();
+        assert!(mixed > 10, "{mixed} pixels mix both halves");
+        for c in &seen.colors {
+            assert!((c.x + c.z - 1.0).abs() < 1e-5 && c.y == 0.0, "{c}");
+        }
     }
 
     #[test]

@@ -82,6 +82,11 @@ struct LocateArgs {
     /// varies over the panorama (the ablation of that step).
     #[arg(long)]
     no_local_light: bool,
+    /// Sub-pixels per pixel along each axis when the object search splats a hypothesis (by default
+    /// 1: whole pixels, each its nearest point's colour, rims half covered; n: each pixel the share of
+    /// its n × n sub-pixels the object covers, with their mean colour).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4))]
+    supersample: Option<u32>,
     #[command(flatten)]
     search: super::search_args::SearchArgs,
     /// Also run the holistic fit from the initial poses (as `neuroom locate` does) and score its poses
@@ -331,11 +336,14 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
 /// `neuroom bench locate`: camera, identification and initial-pose scores per panorama and their mean.
 fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
     let defaults = neuroom::locate::LocateConfig::default();
-    let config = a.search.apply(neuroom::locate::LocateConfig {
+    let mut config = a.search.apply(neuroom::locate::LocateConfig {
         match_shading: !a.no_shading,
         local_light: defaults.local_light.clone().filter(|_| !a.no_local_light),
         ..defaults
     });
+    if let Some(n) = a.supersample {
+        config.search.supersample = n as usize;
+    }
     let fit = neuroom::fit::FitConfig {
         preview_height: None,
         ..neuroom::fit::FitConfig::refinement()
