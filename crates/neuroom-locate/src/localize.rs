@@ -190,7 +190,8 @@ pub struct CameraEstimate {
     /// Finalists refined to the end (1, or more when the best one's evidence was weak).
     #[serde(default)]
     pub tried: usize,
-    /// The camera's tilt from level found in the panorama before it was located (degrees).
+    /// The tilt (degrees) of the levelling the kept camera was located under: the one found in the
+    /// panorama's edges, or 0 when the camera located as taken correlated better ([`localize`]).
     #[serde(default)]
     pub tilt_deg: f64,
     /// Seconds: heading search, coarse alignment, rendered refinement.
@@ -207,10 +208,15 @@ impl CameraEstimate {
 /// Finds the camera of `panorama` (a full panorama, or a photo on its sphere) in the room whose
 /// empty-room scene (no objects) is `scene`, using `db`.
 ///
-/// A full panorama whose edges show the camera tilted by at least [`LevelConfig::min_tilt_deg`] is
-/// levelled for the heading search and the coarse alignment, which assume a level camera; its
-/// candidates are then refined in six degrees of freedom against the panorama as taken. Otherwise the
-/// rendered rounds keep the camera upright but for the last, which frees its tilt too.
+/// A panorama whose edges show no tilt (of at least [`LevelConfig::min_tilt_deg`]) is located as
+/// taken: the rendered rounds keep the camera upright but for the last, which frees its tilt too. One
+/// whose edges show a tilt is located levelled first (the heading search and the coarse alignment
+/// assume a level camera) with every rendered round in six degrees of freedom. The levelling is a
+/// hypothesis, not a decision: the straight edges of a lamp's pool or a spot's cone vote for a false
+/// up as readily as the room's own edges do. So when the levelled camera's evidence is not strong
+/// ([`CameraEvidence::strong`], as for [`LocalizeConfig::fallbacks`]), the panorama is located as
+/// taken too and the camera that correlates better with the empty room is kept; the final correlation
+/// is measured against the panorama as taken in both cases, so it judges the two on the same evidence.
 pub fn localize<F: Field>(
     scene: &Scene<F>,
     db: &Database,
@@ -220,9 +226,35 @@ pub fn localize<F: Field>(
     if db.entries.is_empty() {
         return Err("the localization database has no panoramas".into());
     }
-    let t0 = Instant::now();
     let to_level = levelling(panorama, config);
     let panorama = &panorama.without_clipped();
+    let Some(to_level) = to_level else {
+        return localize_as(scene, db, panorama, None, config);
+    };
+    let levelled = localize_as(scene, db, panorama, Some(to_level), config)?;
+    if levelled.score >= config.evidence.strong {
+        return Ok(levelled);
+    }
+    let as_taken = localize_as(scene, db, panorama, None, config)?;
+    let seconds = [0, 1, 2].map(|i| as_taken.seconds[i] + levelled.seconds[i]);
+    let kept = if levelled.score > as_taken.score {
+        levelled
+    } else {
+        as_taken
+    };
+    Ok(CameraEstimate { seconds, ..kept })
+}
+
+/// [`localize`] under one hypothesis of the camera's tilt: `to_level` (camera frame → level frame)
+/// levels the panorama for the search, `None` takes it as level.
+fn localize_as<F: Field>(
+    scene: &Scene<F>,
+    db: &Database,
+    panorama: &SphereImage,
+    to_level: Option<DMat3>,
+    config: &LocalizeConfig,
+) -> Result<CameraEstimate, String> {
+    let t0 = Instant::now();
     let levelled = match to_level {
         Some(l) => Some(
             SphereImage::panorama(
