@@ -256,6 +256,8 @@ impl CameraEstimate {
 /// ([`CameraEvidence::strong`], as for [`LocalizeConfig::fallbacks`]), the panorama is located as
 /// taken too and the camera that correlates better with the empty room is kept; the final correlation
 /// is measured against the panorama as taken in both cases, so it judges the two on the same evidence.
+/// A camera whose evidence is then nil ([`CameraEvidence::weak`]) is searched for again, wider
+/// ([`LostSearch`]), under the tilt hypothesis that won.
 pub fn localize<F: Field>(
     scene: &Scene<F>,
     db: &Database,
