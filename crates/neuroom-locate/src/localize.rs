@@ -269,38 +269,56 @@ pub fn localize<F: Field>(
     }
     let to_level = levelling(panorama, config);
     let panorama = &panorama.without_clipped();
-    let (kept, tilt) = match to_level {
-        None => (localize_as(scene, db, panorama, None, config)?, None),
+    let locate = |to_level: Option<DMat3>, config: &LocalizeConfig| {
+        localize_as(scene, db, panorama, to_level, config)
+            .map(|estimate| TiltHypothesis { estimate, to_level })
+    };
+    let kept = match to_level {
+        None => locate(None, config)?,
         Some(to_level) => {
-            let levelled = localize_as(scene, db, panorama, Some(to_level), config)?;
-            if levelled.score >= config.evidence.strong {
-                (levelled, Some(to_level))
+            let levelled = locate(Some(to_level), config)?;
+            if levelled.estimate.score >= config.evidence.strong {
+                levelled
             } else {
-                let as_taken = localize_as(scene, db, panorama, None, config)?;
-                if levelled.score > as_taken.score {
-                    (sum_seconds(levelled, &as_taken), Some(to_level))
-                } else {
-                    (sum_seconds(as_taken, &levelled), None)
-                }
+                locate(None, config)?.or_better(levelled)
             }
         }
     };
-    let wider = config.lost_search.widened(config);
-    if kept.score >= config.evidence.weak || wider.finalists <= config.finalists {
-        return Ok(kept);
+    if kept.estimate.score >= config.evidence.weak
+        || config.lost_search.finalists <= config.finalists
+    {
+        return Ok(kept.estimate);
     }
-    let widened = localize_as(scene, db, panorama, tilt, &wider)?;
-    Ok(if widened.score > kept.score {
-        sum_seconds(widened, &kept)
-    } else {
-        sum_seconds(kept, &widened)
-    })
+    let widened = locate(kept.to_level, &config.lost_search.widened(config))?;
+    Ok(kept.or_better(widened).estimate)
 }
 
-/// `kept` with the time of `other` added to its own.
-fn sum_seconds(kept: CameraEstimate, other: &CameraEstimate) -> CameraEstimate {
-    let seconds = [0, 1, 2].map(|i| kept.seconds[i] + other.seconds[i]);
-    CameraEstimate { seconds, ..kept }
+/// A camera located under one hypothesis of the panorama's tilt.
+struct TiltHypothesis {
+    estimate: CameraEstimate,
+    /// The levelling it was located under (camera frame → level frame); `None`: as taken.
+    to_level: Option<DMat3>,
+}
+
+impl TiltHypothesis {
+    /// This camera, or `other` where it correlates better with the empty room; either way with the
+    /// time of both.
+    fn or_better(self, other: TiltHypothesis) -> TiltHypothesis {
+        let (mut kept, dropped) = if other.estimate.score > self.estimate.score {
+            (other, self)
+        } else {
+            (self, other)
+        };
+        for (k, d) in kept
+            .estimate
+            .seconds
+            .iter_mut()
+            .zip(dropped.estimate.seconds)
+        {
+            *k += d;
+        }
+        kept
+    }
 }
 
 /// [`localize`] under one hypothesis of the camera's tilt: `to_level` (camera frame → level frame)
