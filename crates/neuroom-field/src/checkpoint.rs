@@ -87,8 +87,8 @@ pub fn save(
     write_atomic(&path, &text)
 }
 
-/// Reads a checkpoint: the field, the Adam state when saved, and the metadata.
-pub fn load(dir: &Path) -> Result<(NeusField<f32>, Option<Adam>, CheckpointMeta), CheckpointError> {
+/// The description (`config.json`) of the checkpoint in `dir` alone, without reading its tensors.
+pub fn read_meta(dir: &Path) -> Result<CheckpointMeta, CheckpointError> {
     let path = dir.join("config.json");
     let text = std::fs::read(&path).map_err(|source| CheckpointError::Io {
         path: path.clone(),
@@ -105,6 +105,12 @@ pub fn load(dir: &Path) -> Result<(NeusField<f32>, Option<Adam>, CheckpointMeta)
             message: format!("format {:?}, expected {FORMAT:?}", meta.format),
         });
     }
+    Ok(meta)
+}
+
+/// Reads a checkpoint: the field, the Adam state when saved, and the metadata.
+pub fn load(dir: &Path) -> Result<(NeusField<f32>, Option<Adam>, CheckpointMeta), CheckpointError> {
+    let meta = read_meta(dir)?;
     let mut field = NeusField::uninit(meta.field.clone());
     field.set_active_levels(meta.active_levels);
     read_tensors(&dir.join("weights.safetensors"), &mut field.params, "")?;

@@ -114,6 +114,7 @@ pub fn tiny_models() -> RoomModels {
             entry("stool", ModelKind::Object, &[3], &stool),
         ],
         complete: true,
+        room_folder: None,
     };
     RoomModels {
         manifest,

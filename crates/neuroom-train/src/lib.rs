@@ -24,6 +24,6 @@ pub mod trainer;
 pub use config::{BudgetClock, ModelBudget, TrainConfig};
 pub use room::{
     MANIFEST_FILE, Manifest, ModelEntry, RoomModels, TrainError, TrainSummary, load_room_models,
-    train_room,
+    read_manifest, train_room,
 };
 pub use trainer::{ModelKind, Trainer};

@@ -15,6 +15,11 @@ pub trait Progress: Sync {
     /// Progress of a stage that is not a model's training (e.g. the identification network): `position`
     /// of `total` units, and what to show beside the bar.
     fn note(&self, _position: u64, _total: u64, _message: &str) {}
+    /// Whether the caller asks the run to stop (e.g. Ctrl-C in a host program): checked after every
+    /// step; the trainer then saves its checkpoint and returns [`TrainError::Interrupted`](crate::TrainError).
+    fn interrupted(&self) -> bool {
+        false
+    }
 }
 
 /// Reports nothing.

@@ -7,7 +7,10 @@
 //! ```
 //! A model is finished when its `config.json` exists (it is written last, atomically). `train_room` skips
 //! finished models, resumes the one with a checkpoint, and rewrites the manifest after every model. Objects
-//! that name the same capture are instances of one model, trained once.
+//! that name the same capture are instances of one model, trained once. Each model is an independent
+//! job: `train_room` told to train only some models (`only`) lists every model finished so far, whichever
+//! process finished it, so several processes can train one room's models side by side; the manifest is
+//! complete once every model is there.
 
 use crate::augment::Augmentation;
 use crate::config::TrainConfig;
@@ -52,6 +55,27 @@ pub enum TrainError {
         faults: u64,
         /// The learning-rate scale reached.
         lr_scale: f32,
+    },
+    /// The run was asked to stop ([`Progress::interrupted`]); the model's checkpoint is saved, and the
+    /// next run resumes from it.
+    #[error(
+        "{model}: interrupted at step {step}; its checkpoint is saved and training resumes from it"
+    )]
+    Interrupted {
+        /// The model.
+        model: String,
+        /// The step it stopped after.
+        step: u64,
+    },
+    /// Names asked to be trained that are no model of the room.
+    #[error("{room}: no model named {unknown:?} (the room's models: {known:?})")]
+    UnknownModels {
+        /// The room's `room.json`.
+        room: PathBuf,
+        /// The names asked for that no model has.
+        unknown: Vec<String>,
+        /// The names of the room's models.
+        known: Vec<String>,
     },
     /// A problem with a file that is not one of the above, e.g. the manifest.
     #[error("{path}: {message}")]
@@ -200,6 +224,10 @@ pub struct Manifest {
     pub models: Vec<ModelEntry>,
     /// Whether every model of the room is finished.
     pub complete: bool,
+    /// The room folder the models were trained from (absolute), so that a model folder opened alone
+    /// finds its `room.json`; absent in folders written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub room_folder: Option<PathBuf>,
 }
 
 impl ModelEntry {
@@ -233,42 +261,31 @@ pub struct TrainSummary {
 }
 
 /// Trains the background and every distinct object model of the room at `room_dir`, into
-/// `models_out/<room name>/`; resumable (see the module documentation).
+/// `models_out/<room name>/`; resumable (see the module documentation). With `only` non-empty, trains
+/// just the models of those names and lists every model finished so far in the manifest.
 pub fn train_room(
     room_dir: &Path,
     models_out: &Path,
     config: &TrainConfig,
+    only: &[String],
     progress: &dyn Progress,
 ) -> Result<TrainSummary, TrainError> {
     with_threads(config.threads, || {
         let start = Instant::now();
         let room = read_room(room_dir)?;
+        let specs = model_specs(&room);
+        check_names(room_dir, &specs, only)?;
         let dir = models_out.join(&room.name);
         let augmentation = Augmentation::load(&config.env_maps)?;
-        let mut manifest = Manifest {
-            format: MANIFEST_FORMAT.into(),
-            room: room.name.clone(),
-            room_box: None,
-            models: Vec::new(),
-            complete: false,
-        };
         let mut trained = Vec::new();
-        for spec in model_specs(&room) {
-            let model_dir = dir.join(&spec.path);
-            let entry = match read_entry(&dir, &spec)? {
-                Some(entry) => entry,
-                None => {
-                    trained.push(spec.name.clone());
-                    train_model(&spec, &model_dir, config, &augmentation, progress)?.0
-                }
-            };
-            if spec.kind == ModelKind::Background {
-                manifest.room_box = Some(entry.bounds);
+        for spec in &specs {
+            if (only.is_empty() || only.contains(&spec.name)) && read_entry(&dir, spec)?.is_none() {
+                trained.push(spec.name.clone());
+                train_model(spec, &dir.join(&spec.path), config, &augmentation, progress)?;
+                write_manifest(&dir, &finished_manifest(&room, &dir, &specs)?)?;
             }
-            manifest.models.push(entry);
-            write_manifest(&dir, &manifest)?;
         }
-        manifest.complete = true;
+        let manifest = finished_manifest(&room, &dir, &specs)?;
         write_manifest(&dir, &manifest)?;
         Ok(TrainSummary {
             dir,
@@ -277,6 +294,49 @@ pub fn train_room(
             seconds: start.elapsed().as_secs_f64(),
         })
     })
+}
+
+/// An error naming the models of `only` the room does not have.
+fn check_names(room_dir: &Path, specs: &[ModelSpec], only: &[String]) -> Result<(), TrainError> {
+    let known: Vec<String> = specs.iter().map(|s| s.name.clone()).collect();
+    let unknown: Vec<String> = only
+        .iter()
+        .filter(|n| !known.contains(n))
+        .cloned()
+        .collect();
+    if unknown.is_empty() {
+        return Ok(());
+    }
+    Err(TrainError::UnknownModels {
+        room: room_dir.join("room.json"),
+        unknown,
+        known,
+    })
+}
+
+/// The manifest of the models of `specs` finished in `dir` so far (read back from their saved
+/// configs, so models another process finished are listed too), complete when every one is.
+fn finished_manifest(room: &Room, dir: &Path, specs: &[ModelSpec]) -> Result<Manifest, TrainError> {
+    let mut manifest = Manifest {
+        format: MANIFEST_FORMAT.into(),
+        room: room.name.clone(),
+        room_box: None,
+        models: Vec::new(),
+        complete: true,
+        room_folder: std::path::absolute(&room.root).ok(),
+    };
+    for spec in specs {
+        match read_entry(dir, spec)? {
+            Some(entry) => {
+                if spec.kind == ModelKind::Background {
+                    manifest.room_box = Some(entry.bounds);
+                }
+                manifest.models.push(entry);
+            }
+            None => manifest.complete = false,
+        }
+    }
+    Ok(manifest)
 }
 
 /// Runs `f` on a pool of `threads` workers (0 = the global pool).
@@ -293,7 +353,7 @@ fn read_entry(room_dir: &Path, spec: &ModelSpec) -> Result<Option<ModelEntry>, T
     if !dir.join("config.json").exists() {
         return Ok(None);
     }
-    let (_, _, meta) = checkpoint::load(&dir)?;
+    let meta = checkpoint::read_meta(&dir)?;
     let entry =
         serde_json::from_value(meta.trainer["entry"].clone()).map_err(|e| TrainError::File {
             path: dir.join("config.json"),
@@ -462,8 +522,8 @@ impl RoomModels {
     }
 }
 
-/// Reads a room's model folder (`<models>/<room>`): the manifest and every model it lists.
-pub fn load_room_models(dir: &Path) -> Result<RoomModels, TrainError> {
+/// Reads the manifest of a room's model folder (`<models>/<room>/manifest.json`) alone.
+pub fn read_manifest(dir: &Path) -> Result<Manifest, TrainError> {
     let path = dir.join(MANIFEST_FILE);
     let text = std::fs::read(&path).map_err(|e| TrainError::File {
         path: path.clone(),
@@ -479,6 +539,12 @@ pub fn load_room_models(dir: &Path) -> Result<RoomModels, TrainError> {
             message: format!("format {:?}, expected {MANIFEST_FORMAT:?}", manifest.format),
         });
     }
+    Ok(manifest)
+}
+
+/// Reads a room's model folder (`<models>/<room>`): the manifest and every model it lists.
+pub fn load_room_models(dir: &Path) -> Result<RoomModels, TrainError> {
+    let manifest = read_manifest(dir)?;
     let fields = manifest
         .models
         .iter()

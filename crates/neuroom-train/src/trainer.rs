@@ -749,6 +749,15 @@ impl Trainer<'_> {
                     lr_scale: health.lr_scale,
                 });
             }
+            if progress.interrupted() {
+                if let Some(dir) = checkpoint {
+                    self.save(dir)?;
+                }
+                return Err(TrainError::Interrupted {
+                    model: name.to_string(),
+                    step: self.state.step,
+                });
+            }
             if let Some(dir) =
                 checkpoint.filter(|_| every > 0 && self.state.step.is_multiple_of(every))
             {

@@ -193,7 +193,7 @@ fn a_room_trains_into_a_model_folder_that_loads_and_resumes() {
     partial
         .save(&out.join("tiny/background/checkpoint"))
         .unwrap();
-    let summary = train_room(&room, &out, &config, &Quiet).unwrap();
+    let summary = train_room(&room, &out, &config, &[], &Quiet).unwrap();
     assert_eq!(
         summary.trained,
         vec!["background".to_string(), "ball".to_string()]
@@ -220,7 +220,7 @@ fn a_room_trains_into_a_model_folder_that_loads_and_resumes() {
     );
     assert!(!summary.dir.join("background/checkpoint").exists());
     // A second call finds every model finished.
-    let again = train_room(&room, &out, &config, &Quiet).unwrap();
+    let again = train_room(&room, &out, &config, &[], &Quiet).unwrap();
     assert!(again.trained.is_empty());
     assert_eq!(again.manifest.models.len(), 2);
 }

@@ -557,24 +557,10 @@ pub fn edit_arrangement(
     camera: Option<&ViewCamera>,
 ) -> anyhow::Result<EditOutputs> {
     let file = read_edit_file(edit)?;
-    let mut edited = read_arrangement(arrangement)?;
     let base = edit.parent().unwrap_or(Path::new("."));
-    let touched =
-        apply_edits(&mut edited, &file.edits, base).with_context(|| edit.display().to_string())?;
-    let mut settled = Vec::new();
-    if file.settle && !touched.is_empty() {
-        let (mut scene, _) = place_models(models, &edited)?;
-        for id in touched {
-            let k = edited
-                .objects
-                .iter()
-                .position(|o| o.id == id)
-                .context("touched object vanished")?;
-            let dz = settle(&mut scene, k)?;
-            edited.objects[k].object_to_world = scene.objects[k].pose();
-            settled.push((id, dz));
-        }
-    }
+    let (mut edited, settled) =
+        edit_in_memory(models, &read_arrangement(arrangement)?, &file, base)
+            .with_context(|| edit.display().to_string())?;
     carry_room_lighting(&mut edited, arrangement)?;
     write_arrangement(out, &edited)?;
     let render = match camera {
@@ -590,6 +576,34 @@ pub fn edit_arrangement(
         render,
         settled,
     })
+}
+
+/// Applies the edits of `file` to `arrangement` placed with `models` (another room's model folders
+/// named relative to `base`) and settles the touched objects unless the file says not to; returns
+/// the edited arrangement and the vertical moves of the settled objects: (id, metres).
+pub fn edit_in_memory(
+    models: &Path,
+    arrangement: &Arrangement,
+    file: &EditFile,
+    base: &Path,
+) -> anyhow::Result<(Arrangement, Vec<(u16, f32)>)> {
+    let mut edited = arrangement.clone();
+    let touched = apply_edits(&mut edited, &file.edits, base)?;
+    let mut settled = Vec::new();
+    if file.settle && !touched.is_empty() {
+        let (mut scene, _) = place_models(models, &edited)?;
+        for id in touched {
+            let k = edited
+                .objects
+                .iter()
+                .position(|o| o.id == id)
+                .context("touched object vanished")?;
+            let dz = settle(&mut scene, k)?;
+            edited.objects[k].object_to_world = scene.objects[k].pose();
+            settled.push((id, dz));
+        }
+    }
+    Ok((edited, settled))
 }
 
 /// Copies the room's solved lighting of the source (its report beside it) into the edited arrangement,

@@ -8,8 +8,8 @@ use glam::Vec3;
 use neuroom_core::formats::{self, Arrangement, Room, read_arrangement, read_rgb, read_room};
 use neuroom_core::image::RgbImage;
 use neuroom_field::NeusField;
-pub use neuroom_fit::FitConfig;
-use neuroom_fit::{FitReport, FitResult, Hint, IterationLog, ObjectInit, RoomBox, fit};
+pub use neuroom_fit::{FitConfig, IterationLog};
+use neuroom_fit::{FitReport, FitResult, Hint, ObjectInit, RoomBox, fit};
 use neuroom_train::{MANIFEST_FILE, ModelKind};
 
 use crate::locate::{LocateConfig, LocateContext, check_fit};
@@ -80,26 +80,101 @@ pub fn fit_panorama(
         (None, Some(r)) => room_hints(r)?,
         (None, None) => Vec::new(),
     };
+    let name = panorama
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let fitted = fit_image(
+        &ImageFit {
+            models,
+            image: &image,
+            name: &name,
+            start: &start,
+            hints: &hints,
+            object_light: input.object_light,
+            check: check.as_ref(),
+        },
+        config,
+        progress,
+    )?;
+    let FittedImage {
+        arrangement: solved,
+        report,
+        result,
+    } = fitted;
+    let outputs = write_fit(out, &solved, &report, &result)?;
+    Ok((outputs, report))
+}
+
+/// What [`fit_image`] fits.
+#[derive(Clone, Copy)]
+pub struct ImageFit<'a> {
+    /// The room's model folder.
+    pub models: &'a Path,
+    /// The equirectangular panorama to explain.
+    pub image: &'a RgbImage,
+    /// The panorama's file name, which the solved arrangement names as its `image`.
+    pub name: &'a str,
+    /// The camera and the initial poses.
+    pub start: &'a Arrangement,
+    /// Relation hints per object name ([`relation_hints`]).
+    pub hints: &'a [(String, Vec<Hint>)],
+    /// The light code every object starts from, by name (the first capture lighting when `None`).
+    pub object_light: Option<&'a str>,
+    /// With the room's locate context: put each object back at its initial pose where the object
+    /// search's colour model says that explains the panorama better ([`check_fit`]).
+    pub check: Option<&'a LocateContext>,
+}
+
+/// A fit's outcome in memory.
+pub struct FittedImage {
+    /// The solved arrangement: poses, each object's tone and light code, and the room's solved light
+    /// (`background_light_code`, `background_tone`), so that it renders as solved without its report.
+    pub arrangement: Arrangement,
+    /// The fit's report.
+    pub report: FitReport,
+    /// The fit itself (renders before and after).
+    pub result: FitResult<NeusField>,
+}
+
+/// Fits the room's models to a panorama from initial poses and checks the solved poses when asked:
+/// the in-memory core of [`fit_panorama`], which the Python package calls too.
+pub fn fit_image(
+    input: &ImageFit,
+    config: &FitConfig,
+    progress: &mut dyn FnMut(&IterationLog),
+) -> anyhow::Result<FittedImage> {
     let result = fit_arrangement(
-        models,
-        &image,
-        &start,
-        &hints,
+        input.models,
+        input.image,
+        input.start,
+        input.hints,
         input.object_light,
         config,
         progress,
     )?;
     let report = result.report();
-    let name = panorama
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut solved = solved_arrangement(&start, &report, &name);
-    if let Some(ctx) = &check {
-        solved = check_fit(ctx, &image, &start, solved, &locate_config)?;
+    let mut solved = solved_arrangement(input.start, &report, input.name);
+    if let Some(ctx) = input.check {
+        let locate_config = LocateConfig {
+            object_light: input.object_light.map(str::to_string),
+            ..LocateConfig::default()
+        };
+        solved = check_fit(ctx, input.image, input.start, solved, &locate_config)?;
     }
-    let outputs = write_fit(out, &solved, &report, &result)?;
-    Ok((outputs, report))
+    solved.extra.insert(
+        "background_light_code".into(),
+        serde_json::to_value(&report.background_light_code)?,
+    );
+    solved.extra.insert(
+        "background_tone".into(),
+        serde_json::to_value(report.background_tone)?,
+    );
+    Ok(FittedImage {
+        arrangement: solved,
+        report,
+        result,
+    })
 }
 
 /// Writes a fit's outputs: the arrangement `solved` to `out`, the fit's report to `<out stem>.fit.json`

@@ -29,3 +29,6 @@ pub use inspect::{RoomReport, inspect_room};
 pub use neuroom_core::camera_effects::CameraEffect;
 /// room.json, for callers that name objects (`neuroom bench locate --objects`).
 pub use neuroom_core::formats::{Room, read_room};
+/// The geometry, cameras, images and file formats the pipelines take and return, for callers
+/// outside the workspace (the Python package).
+pub use neuroom_core::{Pose, camera, formats, image};

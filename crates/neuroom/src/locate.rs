@@ -724,9 +724,7 @@ pub fn locate(
             write_search_view(dir, name, view, &detections)?;
         }
     }
-    arrangement
-        .extra
-        .insert("locate".into(), serde_json::to_value(&located)?);
+    record_located(&mut arrangement, &located)?;
     let stem = out
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -764,6 +762,14 @@ pub fn locate(
         fitted,
         located,
     })
+}
+
+/// Records what locating each view found (camera, scores, timings) in the arrangement's `locate`.
+pub fn record_located(arrangement: &mut Arrangement, located: &[Located]) -> anyhow::Result<()> {
+    arrangement
+        .extra
+        .insert("locate".into(), serde_json::to_value(located)?);
+    Ok(())
 }
 
 /// Writes what the object search saw of the image `name` into `dir` (created when missing), as PNGs

@@ -4,10 +4,11 @@ use std::path::Path;
 
 use neuroom_identify::TrainSettings;
 
+pub use neuroom_train::losses::LossParts;
 pub use neuroom_train::progress::{
     Bar as TrainBar, Progress as TrainProgress, Quiet as TrainQuiet,
 };
-pub use neuroom_train::{TrainConfig, TrainSummary};
+pub use neuroom_train::{Manifest, TrainConfig, TrainSummary, read_manifest};
 
 /// Budget overrides on top of [`TrainConfig::default`].
 #[derive(Clone, Debug, Default)]
@@ -30,6 +31,10 @@ pub struct TrainOptions {
     /// is built, for [`TrainSettings::default`]'s seconds, only when locate's default detector needs
     /// it ([`DetectorChoice::needs_network`](crate::locate::DetectorChoice::needs_network)).
     pub identify_seconds: Option<f64>,
+    /// Train only the models of these names (`background` or an object capture's name); empty: all.
+    /// Each model is an independent job: the manifest lists every model finished so far, whichever
+    /// call finished it, and is complete once all are there.
+    pub only: Vec<String>,
 }
 
 impl TrainOptions {
@@ -79,6 +84,15 @@ impl TrainOptions {
     }
 }
 
+/// The names of the models a room needs (`background` first, then one per object capture): what
+/// `--only` takes.
+pub fn model_names(room: &neuroom_core::formats::Room) -> Vec<String> {
+    neuroom_train::room::model_specs(room)
+        .into_iter()
+        .map(|spec| spec.name)
+        .collect()
+}
+
 /// Trains (or resumes) every model of the room at `room` into `models/<room name>/`. Every file of the
 /// room and every environment map is decoded and checked first, so a bad file fails in seconds, not after
 /// hours of training.
@@ -90,7 +104,7 @@ pub fn train_room(
 ) -> anyhow::Result<TrainSummary> {
     let config = options.config();
     crate::inspect::inspect_room_with(room, &config.env_maps)?;
-    let summary = neuroom_train::train_room(room, models, &config, progress)?;
+    let summary = neuroom_train::train_room(room, models, &config, &options.only, progress)?;
     if summary.manifest.complete {
         build_locate_database(&summary.dir, progress);
         let mut settings = TrainSettings::default();

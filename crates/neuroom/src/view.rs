@@ -114,13 +114,23 @@ pub struct SolvedScene {
 /// the room's from `<stem>.fit.json` beside it when that exists.
 pub fn solved_scene(models: &Path, arrangement_path: &Path) -> anyhow::Result<SolvedScene> {
     let arrangement = read_arrangement(arrangement_path)?;
-    let (scene, placed) = place_models(models, &arrangement)?;
     let report = fit_report_path(arrangement_path);
-    let solved = SceneLight::solved(
-        &arrangement,
-        arrangement_path,
-        report.exists().then_some(report.as_path()),
-    )?;
+    let report = report.exists().then_some(report.as_path());
+    placed_scene(models, arrangement, arrangement_path, report)
+}
+
+/// Places the models of `models` as `arrangement` says under its solved lighting: the objects' `tone`
+/// and `light_code`, and the room's from the fit report `fit_report` when given, else from the
+/// arrangement's `background_light_code` and `background_tone`. Errors name `source`, the file the
+/// arrangement came from (or stands for).
+pub fn placed_scene(
+    models: &Path,
+    arrangement: Arrangement,
+    source: &Path,
+    fit_report: Option<&Path>,
+) -> anyhow::Result<SolvedScene> {
+    let (scene, placed) = place_models(models, &arrangement)?;
+    let solved = SceneLight::solved(&arrangement, source, fit_report)?;
     let mut lit = LitScene::new(scene);
     lit.set(&solved)?;
     Ok(SolvedScene {

@@ -45,6 +45,11 @@ pub struct Args {
     /// default detector does not use it (`--detector network` or `named` does).
     #[arg(long)]
     identify_seconds: Option<f64>,
+    /// Train only this model (`background` or an object capture's name; repeat for several). Each
+    /// model is an independent job: runs on other machines or processes may train the others into
+    /// the same folder, and the manifest is complete once every model is there.
+    #[arg(long = "only", value_name = "MODEL")]
+    only: Vec<String>,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -61,6 +66,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed: args.seed,
         cpu_clock: args.cpu_clock,
         identify_seconds: args.identify_seconds,
+        only: args.only,
     };
     let summary =
         neuroom::train::train_room(&args.room, &args.out, &options, &TrainBar::default())?;
@@ -75,6 +81,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         for m in &summary.manifest.models {
             println!("  {}", neuroom::train::describe_model(m));
+        }
+        if !summary.manifest.complete {
+            println!("  the room's other models are not trained yet: the manifest is incomplete");
         }
         if let Some(network) = neuroom::identify::read_network(&summary.dir)? {
             println!(

@@ -82,6 +82,12 @@ fn read_object(o: &JsonObject) -> FormatResult<ArrangedObject> {
 /// Writes `arrangement` to `path` atomically, checking what the reader checks.
 pub fn write_arrangement(path: impl AsRef<Path>, arrangement: &Arrangement) -> FormatResult<()> {
     let file = path.as_ref();
+    write_json(file, &arrangement_value(file, arrangement)?)
+}
+
+/// `arrangement` as the JSON value its file holds, checking what the reader checks; errors name
+/// `file`, the file it is meant for.
+pub fn arrangement_value(file: &Path, arrangement: &Arrangement) -> FormatResult<Value> {
     super::check_unique(
         file,
         arrangement.objects.iter().map(|o| (o.id, o.name.as_str())),
@@ -107,7 +113,7 @@ pub fn write_arrangement(path: impl AsRef<Path>, arrangement: &Arrangement) -> F
     for (k, v) in &arrangement.extra {
         top.entry(k.clone()).or_insert_with(|| v.clone());
     }
-    write_json(file, &Value::Object(top))
+    Ok(Value::Object(top))
 }
 
 /// One entry of `objects`, for writing.

@@ -14,7 +14,8 @@ pub mod tensor_file;
 pub mod transforms;
 
 pub use arrangement::{
-    ArrangedObject, Arrangement, parse_arrangement, read_arrangement, write_arrangement,
+    ArrangedObject, Arrangement, arrangement_value, parse_arrangement, read_arrangement,
+    write_arrangement,
 };
 pub use envmap::{EnvMap, decode_envmap, read_envmap};
 pub use images::{
