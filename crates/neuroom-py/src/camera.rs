@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 use neuroom::Pose;
-use neuroom::camera::{Camera, Equirect, Pinhole};
+use neuroom::camera::{Camera, Pinhole};
 use neuroom::view::{RenderedView, ViewCamera};
 use numpy::{PyArray2, PyArray3};
 use pyo3::exceptions::PyValueError;
@@ -137,11 +137,9 @@ pub fn resolve_camera(
 ) -> PyResult<(Camera, Pose)> {
     match pinhole {
         Some(p) => Ok((Camera::Pinhole(p.camera), p.pose)),
-        None => {
-            let camera = Equirect::new(width, width / 2)
-                .map_err(|e| PyValueError::new_err(format!("render: width {width}: {e}")))?;
-            Ok((Camera::Equirect(camera), *panorama_pose))
-        }
+        None => ViewCamera::Panorama { width }
+            .resolve(panorama_pose)
+            .map_err(|e| PyValueError::new_err(format!("render: width {width}: {e}"))),
     }
 }
 

@@ -8,6 +8,7 @@ use pyo3::prelude::*;
 
 use crate::arrangement::ArrangementPy;
 use crate::error::to_py;
+use crate::models::ModelsPy;
 use crate::room::room_from_python;
 use crate::worker;
 
@@ -28,8 +29,8 @@ pub fn evaluate(
     let room = room_from_python(room)?.root;
     let models = match models {
         None => None,
-        Some(m) => Some(match m.getattr("path") {
-            Ok(path) => path.extract::<PathBuf>()?,
+        Some(m) => Some(match m.cast::<ModelsPy>() {
+            Ok(models) => models.get().folder().to_path_buf(),
             Err(_) => m.extract::<PathBuf>().map_err(|_| {
                 PyTypeError::new_err("models: expected a neuroom.Models or a folder path")
             })?,

@@ -45,6 +45,11 @@ impl ModelsPy {
         })
     }
 
+    /// The model folder.
+    pub fn folder(&self) -> &Path {
+        &self.folder
+    }
+
     fn sizes(&self) -> BoxSizes {
         BoxSizes::of(&self.room)
     }

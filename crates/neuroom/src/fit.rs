@@ -66,12 +66,12 @@ pub fn fit_panorama(
     let start = read_arrangement(input.init)?;
     // The check's context (room, models, object clouds) is loaded before the fit, so that a room it
     // cannot use fails before minutes of fitting; the relation hints come from the room it read.
-    let locate_config = LocateConfig {
-        object_light: input.object_light.map(str::to_string),
-        ..LocateConfig::default()
-    };
     let check = match (input.check, input.room) {
-        (true, Some(room)) => Some(LocateContext::load(room, models, &locate_config)?),
+        (true, Some(room)) => Some(LocateContext::load(
+            room,
+            models,
+            &check_config(input.object_light),
+        )?),
         (true, None) => anyhow::bail!("checking the fit's poses needs the room folder (room.json)"),
         (false, _) => None,
     };
@@ -156,11 +156,8 @@ pub fn fit_image(
     let report = result.report();
     let mut solved = solved_arrangement(input.start, &report, input.name);
     if let Some(ctx) = input.check {
-        let locate_config = LocateConfig {
-            object_light: input.object_light.map(str::to_string),
-            ..LocateConfig::default()
-        };
-        solved = check_fit(ctx, input.image, input.start, solved, &locate_config)?;
+        let config = check_config(input.object_light);
+        solved = check_fit(ctx, input.image, input.start, solved, &config)?;
     }
     solved.extra.insert(
         "background_light_code".into(),
@@ -175,6 +172,15 @@ pub fn fit_image(
         report,
         result,
     })
+}
+
+/// The locate settings the check after a fit judges poses with: locate's own, the objects seen under
+/// the light code named `object_light`, the one the fit starts them from.
+fn check_config(object_light: Option<&str>) -> LocateConfig {
+    LocateConfig {
+        object_light: object_light.map(str::to_string),
+        ..LocateConfig::default()
+    }
 }
 
 /// Writes a fit's outputs: the arrangement `solved` to `out`, the fit's report to `<out stem>.fit.json`
