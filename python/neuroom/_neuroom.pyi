@@ -151,7 +151,9 @@ class Models:
     def names(self) -> list[str]: ...
     @property
     def complete(self) -> bool: ...
-    def locate(self, image: ImageInput, name: str | None = None) -> Arrangement: ...
+    def locate(
+        self, image: ImageInput, name: str | None = None, progress: Progress | None = None
+    ) -> Arrangement: ...
     def fit(
         self,
         image: ImageInput,
@@ -161,7 +163,11 @@ class Models:
         progress: Progress | None = None,
     ) -> Arrangement: ...
     def render(
-        self, arrangement: Arrangement, camera: Pinhole | None = None, width: int = 512
+        self,
+        arrangement: Arrangement,
+        camera: Pinhole | None = None,
+        width: int = 512,
+        progress: Progress | None = None,
     ) -> RenderedImage: ...
     def edit(
         self, arrangement: Arrangement, edits: Sequence[dict[str, Any]], settle: bool = True
@@ -172,6 +178,7 @@ def evaluate(
     arrangements: Sequence[Arrangement | PathLike],
     models: Models | PathLike | None = None,
     render_width: int = 512,
+    progress: Progress | None = None,
 ) -> dict[str, Any]: ...
 
 def read_image(path: PathLike) -> npt.NDArray[np.float32]:

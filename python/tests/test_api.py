@@ -3,11 +3,13 @@ JSON round trips, rendering, editing and evaluation."""
 
 from __future__ import annotations
 
+import io
 import json
 import pathlib
 
 import numpy as np
 import pytest
+import tqdm
 
 import neuroom
 from conftest import run_cli
@@ -18,9 +20,21 @@ def panorama(studio_models: neuroom.Models) -> pathlib.Path:
     return studio_models.room.test_panoramas()[0][0]
 
 
+Report = tuple[str, int, int]
+
+
 @pytest.fixture(scope="session")
-def located(studio_models: neuroom.Models, panorama: pathlib.Path) -> neuroom.Arrangement:
-    return studio_models.locate(panorama)
+def locate_reports(
+    studio_models: neuroom.Models, panorama: pathlib.Path
+) -> tuple[neuroom.Arrangement, list[Report]]:
+    reports: list[Report] = []
+    located = studio_models.locate(panorama, progress=lambda *r: reports.append(r))
+    return located, reports
+
+
+@pytest.fixture(scope="session")
+def located(locate_reports: tuple[neuroom.Arrangement, list[Report]]) -> neuroom.Arrangement:
+    return locate_reports[0]
 
 
 def test_locate_matches_the_command(
@@ -150,3 +164,46 @@ def test_evaluate_scores_the_ground_truth_perfectly(studio_models: neuroom.Model
     assert scores["rows"][0]["panorama"] == panorama.name
     assert scores["mean"]["iou_percent"] == pytest.approx(100.0)
     assert scores["mean"]["camera_position_error_cm"] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_locate_reports_each_stage(
+    locate_reports: tuple[neuroom.Arrangement, list[Report]],
+) -> None:
+    _, reports = locate_reports
+    stages = [stage for stage, _, _ in reports]
+    assert stages[0] == "loading models" and stages[1] == "camera"
+    assert stages[-1] == "located"
+    for stage in ("empty room at the camera", "detection", "placing objects", "residual search"):
+        assert stage in stages
+    done = [step for _, step, _ in reports]
+    assert done == sorted(done), "never backwards"
+    assert {total for _, _, total in reports} == {done[-1]}, "one total, reached at the end"
+
+
+def test_render_and_evaluate_report_progress(
+    studio_models: neuroom.Models, located: neuroom.Arrangement
+) -> None:
+    reports: list[Report] = []
+    studio_models.render(located, width=256, progress=lambda *r: reports.append(r))
+    assert {stage for stage, _, _ in reports} == {"render"}
+    done = [step for _, step, _ in reports]
+    assert len(done) > 2 and done == sorted(done)
+    assert done[-1] == reports[-1][2] == 256 * 128, "every pixel"
+
+    with tqdm.tqdm(file=io.StringIO()) as bar:
+        _, truth = studio_models.room.test_panoramas()[0]
+        neuroom.evaluate(studio_models.room, [truth, truth], progress=bar)
+        assert (bar.n, bar.total) == (2, 2)
+
+
+def test_a_raising_progress_callback_is_the_calls_error(
+    studio_models: neuroom.Models, located: neuroom.Arrangement
+) -> None:
+    class Enough(Exception):
+        pass
+
+    def progress(stage: str, step: int, total: int) -> None:
+        raise Enough(stage)
+
+    with pytest.raises(Enough, match="render"):
+        studio_models.render(located, width=64, progress=progress)

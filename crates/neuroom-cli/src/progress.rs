@@ -39,6 +39,13 @@ impl StageBars {
         }
     }
 
+    /// Shows `message` after the current bar (what it is doing now).
+    pub fn message(&self, message: &str) {
+        if let Some(bar) = &self.bar {
+            bar.set_message(message.to_string());
+        }
+    }
+
     /// Finishes the current bar, leaving it on screen.
     pub fn finish(&mut self) {
         if let Some(bar) = self.bar.take() {

@@ -12,6 +12,7 @@
 //!   [`evidence::Detector`] trait is what a region detector implements), [`objects`] (pose hypotheses
 //!   on the floor, on walls and on other objects, scored by render-and-compare, taken greedily),
 //!   [`merge`] (the objects of several views of one arrangement as one list).
+//! - Progress: [`stage`] (the stage of locating an image, reported as it starts).
 //! - The query on the sphere: [`sphere_image`] (a panorama, or a photo with its intrinsics warped onto
 //!   it, with the pixels it saw).
 
@@ -26,7 +27,9 @@ pub mod merge;
 pub mod objects;
 pub mod shading;
 pub mod sphere_image;
+pub mod stage;
 pub mod yaw;
 
 pub use localize::{CameraEstimate, LocalizeConfig, localize, render_background};
 pub use sphere_image::{PANORAMA_FROM_PINHOLE, SphereImage};
+pub use stage::LocateStage;

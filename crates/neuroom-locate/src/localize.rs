@@ -32,6 +32,7 @@ use crate::features::FeatureMap;
 use crate::level::{LevelConfig, estimate_up, leveling};
 use crate::shading::match_shading;
 use crate::sphere_image::SphereImage;
+use crate::stage::LocateStage;
 use crate::yaw::{YawMatch, best_yaws};
 
 /// Settings of [`localize`].
@@ -257,30 +258,34 @@ impl CameraEstimate {
 /// taken too and the camera that correlates better with the empty room is kept; the final correlation
 /// is measured against the panorama as taken in both cases, so it judges the two on the same evidence.
 /// A camera whose evidence is then nil ([`CameraEvidence::weak`]) is searched for again, wider
-/// ([`LostSearch`]), under the tilt hypothesis that won.
+/// ([`LostSearch`]), under the tilt hypothesis that won. `progress` is told each search as it starts
+/// ([`LocateStage::Camera`], then [`LocateStage::CameraAsTaken`] and [`LocateStage::CameraWider`]
+/// when they run).
 pub fn localize<F: Field>(
     scene: &Scene<F>,
     db: &Database,
     panorama: &SphereImage,
     config: &LocalizeConfig,
+    progress: &mut dyn FnMut(LocateStage),
 ) -> Result<CameraEstimate, String> {
     if db.entries.is_empty() {
         return Err("the localization database has no panoramas".into());
     }
     let to_level = levelling(panorama, config);
     let panorama = &panorama.without_clipped();
-    let locate = |to_level: Option<DMat3>, config: &LocalizeConfig| {
+    let mut locate = |stage: LocateStage, to_level: Option<DMat3>, config: &LocalizeConfig| {
+        progress(stage);
         localize_as(scene, db, panorama, to_level, config)
             .map(|estimate| TiltHypothesis { estimate, to_level })
     };
     let kept = match to_level {
-        None => locate(None, config)?,
+        None => locate(LocateStage::Camera, None, config)?,
         Some(to_level) => {
-            let levelled = locate(Some(to_level), config)?;
+            let levelled = locate(LocateStage::Camera, Some(to_level), config)?;
             if levelled.estimate.score >= config.evidence.strong {
                 levelled
             } else {
-                locate(None, config)?.or_better(levelled)
+                locate(LocateStage::CameraAsTaken, None, config)?.or_better(levelled)
             }
         }
     };
@@ -289,7 +294,11 @@ pub fn localize<F: Field>(
     {
         return Ok(kept.estimate);
     }
-    let widened = locate(kept.to_level, &config.lost_search.widened(config))?;
+    let widened = locate(
+        LocateStage::CameraWider,
+        kept.to_level,
+        &config.lost_search.widened(config),
+    )?;
     Ok(kept.or_better(widened).estimate)
 }
 

@@ -32,6 +32,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::evidence::{SearchView, colour_error, dilate, relit_room, room_gains};
 use crate::local_light::under_gain;
+use crate::stage::LocateStage;
 
 /// Search settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -521,8 +522,14 @@ pub fn object_standings<F: Field>(
         .collect()
 }
 
-/// Finds the objects of `input` and their initial poses.
-pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> Vec<Found> {
+/// Finds the objects of `input` and their initial poses, telling `progress` each pass as it starts
+/// (from [`LocateStage::Hypotheses`] to [`LocateStage::Residual`]).
+pub fn find_objects<F: Field>(
+    input: &SearchInput<F>,
+    config: &SearchConfig,
+    progress: &mut dyn FnMut(LocateStage),
+) -> Vec<Found> {
+    progress(LocateStage::Hypotheses);
     let models = relit_models(input);
     let input = &SearchInput {
         models: &models,
@@ -533,10 +540,15 @@ pub fn find_objects<F: Field>(input: &SearchInput<F>, config: &SearchConfig) -> 
     let floor = floor_height(empty, &input.camera_to_world);
     let empty_room = Placed::nothing(&target);
     let pool = pruned_hypotheses(&target, &empty_room, models, &[], floor, config);
+    progress(LocateStage::Place);
     let found = greedy(&target, models, pool.clone(), Vec::new(), config);
+    progress(LocateStage::Revisit);
     let found = revisit(&target, models, &pool, found, config);
+    progress(LocateStage::Exchange);
     let found = exchange(&target, models, &pool, found, config);
+    progress(LocateStage::Remove);
     let found = take_outs(&target, models, &pool, found, config);
+    progress(LocateStage::Residual);
     residual_search(&target, models, &pool, found, floor, config)
 }
 

@@ -132,7 +132,9 @@ fn localization_error(
         fine_widths: vec![128, 256],
         ..LocalizeConfig::default()
     };
-    let found = localize(empty, db, query, &config).unwrap().pose();
+    let found = localize(empty, db, query, &config, &mut |_| {})
+        .unwrap()
+        .pose();
     (
         found.translation.distance(truth.translation),
         neuroom_core::metrics::rotation_error_deg(truth.rotation, found.rotation),
@@ -345,7 +347,7 @@ impl PlacedBox {
 fn the_present_object_is_placed_and_the_absent_one_is_not_invented() {
     let scene = PlacedBox::new();
     assert!(!scene.detections.is_empty());
-    let found = find_objects(&scene.input(), &SearchConfig::default());
+    let found = find_objects(&scene.input(), &SearchConfig::default(), &mut |_| {});
     assert_eq!(found.len(), 1, "{found:?}");
     assert_eq!(found[0].id, 1);
     let pose = Pose::from_rows_unchecked(&found[0].object_to_world);
@@ -465,7 +467,7 @@ fn an_object_in_a_photo_is_placed_and_what_the_photo_cannot_see_is_not_held_agai
         detections: &detections,
         models: &models,
     };
-    let found = find_objects(&input, &SearchConfig::default());
+    let found = find_objects(&input, &SearchConfig::default(), &mut |_| {});
     assert_eq!(found.len(), 1, "{found:?}");
     assert_eq!(found[0].id, 1);
     let pose = Pose::from_rows_unchecked(&found[0].object_to_world);

@@ -10,21 +10,23 @@ use crate::arrangement::ArrangementPy;
 use crate::error::to_py;
 use crate::models::ModelsPy;
 use crate::room::room_from_python;
-use crate::worker;
+use crate::worker::{self, progress_callback, reporter};
 
 /// Scores solved `arrangements` (each an `Arrangement` or a file) of the test panoramas of `room`
 /// (a `Room` or its folder) against their ground truth: 3D IoU, rotation and position errors,
 /// identification precision and recall, the camera's error and, with `models` (a `Models` or its
 /// folder), PSNR / SSIM / LPIPS of the re-rendered panorama `render_width` pixels wide. Returns
 /// `{"rows": [...], "mean": {...}, "lpips_unavailable": ...}` as `neuroom eval --json` prints it.
+/// `progress`: a callable `("evaluate", arrangements done, arrangements)` or a `tqdm` bar.
 #[pyfunction]
-#[pyo3(signature = (room, arrangements, models=None, render_width=512))]
+#[pyo3(signature = (room, arrangements, models=None, render_width=512, progress=None))]
 pub fn evaluate(
     py: Python<'_>,
     room: &Bound<'_, PyAny>,
     arrangements: Vec<Bound<'_, PyAny>>,
     models: Option<&Bound<'_, PyAny>>,
     render_width: u32,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Py<PyAny>> {
     let room = room_from_python(room)?.root;
     let models = match models {
@@ -56,8 +58,17 @@ pub fn evaluate(
         models,
         render_width,
     };
-    let text = worker::run(py, None, None, move || {
-        let evaluation = evaluate_room(&room, &paths, &options, &mut |_| {})?;
+    let progress = reporter(progress_callback(py, progress)?, "evaluate");
+    let errors = progress.errors.clone();
+    let text = worker::run(py, None, Some(errors), move || {
+        let total = paths.len() as u64;
+        let mut done = 0;
+        let mut each = |_: &std::path::Path| {
+            progress.report(done, total);
+            done += 1;
+        };
+        let evaluation = evaluate_room(&room, &paths, &options, &mut each)?;
+        progress.report(total, total);
         drop(scratch);
         Ok(serde_json::to_string(&evaluation)?)
     })?;

@@ -1,7 +1,6 @@
 //! A room's trained models and what they do: train, open, locate, fit, render, edit.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
 use neuroom::Room;
@@ -9,9 +8,11 @@ use neuroom::edit::{Edit, EditFile, edit_in_memory};
 use neuroom::fit::{FitConfig, ImageFit, fit_image, relation_hints};
 use neuroom::formats::Arrangement;
 use neuroom::image::RgbImage;
-use neuroom::locate::{LocateConfig, LocateContext, QueryImage, locate_image, record_located};
+use neuroom::locate::{
+    LocateConfig, LocateContext, LocateStage, LocateStep, QueryImage, locate_image, record_located,
+};
 use neuroom::train::{Manifest, TrainOptions, read_manifest, train_room};
-use neuroom::view::{placed_scene, render_camera};
+use neuroom::view::{RenderedShare, placed_scene, render_camera};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -20,7 +21,7 @@ use crate::arrays::rgb_from_numpy;
 use crate::camera::{PinholePy, RenderedImagePy, resolve_camera};
 use crate::error::{NeuroomError, to_py};
 use crate::room::{BoxSizes, RoomPy, room_from_python};
-use crate::worker::{self, CallbackError, CallbackProgress};
+use crate::worker::{self, progress_callback, reporter};
 
 /// Locate's context of a model folder, loaded by the first call that needs it and kept.
 type SharedContext = Arc<Mutex<Option<Arc<LocateContext>>>>;
@@ -129,26 +130,6 @@ fn panorama_from_python(
     }
 }
 
-/// A progress argument as a callable `(stage, step, total)`: `neuroom._progress.as_callback`
-/// turns a `tqdm` bar into one and passes callables through.
-fn progress_callback(py: Python<'_>, progress: Option<Py<PyAny>>) -> PyResult<Option<Py<PyAny>>> {
-    let Some(progress) = progress else {
-        return Ok(None);
-    };
-    let adapt = py.import("neuroom._progress")?.getattr("as_callback")?;
-    Ok(Some(adapt.call1((progress,))?.unbind()))
-}
-
-/// A fresh progress reporter around `callback`.
-fn reporter(callback: Option<Py<PyAny>>, stage: &str) -> Arc<CallbackProgress> {
-    Arc::new(CallbackProgress {
-        callback,
-        stop: Arc::new(AtomicBool::new(false)),
-        errors: Arc::new(CallbackError::default()),
-        model: Mutex::new(stage.to_string()),
-    })
-}
-
 #[pymethods]
 impl ModelsPy {
     /// Trains (or resumes) the models of `room` into `out/<room name>` and returns them. `steps`:
@@ -241,20 +222,31 @@ impl ModelsPy {
 
     /// Finds the camera and the objects with their initial poses in a panorama (a file path, or
     /// an `H×W×3` uint8 / float32 array); `name` is the image name the arrangement records. The
-    /// same as `neuroom locate --no-fit`.
-    #[pyo3(signature = (image, name=None))]
+    /// same as `neuroom locate --no-fit`. `progress`: a callable `(stage, done, total)` told each
+    /// stage as it starts (`"camera"`, `"placing objects"`, …; `"located"` at the end), or a
+    /// `tqdm` bar.
+    #[pyo3(signature = (image, name=None, progress=None))]
     fn locate(
         &self,
         py: Python<'_>,
         image: &Bound<'_, PyAny>,
         name: Option<String>,
+        progress: Option<Py<PyAny>>,
     ) -> PyResult<ArrangementPy> {
         let (query, name) = query_from_python(image, name)?;
         let source = self.context_source();
-        let arrangement = worker::run(py, None, None, move || {
+        let progress = reporter(progress_callback(py, progress)?, "locate");
+        let errors = progress.errors.clone();
+        let arrangement = worker::run(py, None, Some(errors), move || {
+            let stages = LocateStage::PLANNED.len() as u64;
+            progress.tell("loading models", 0, stages);
             let ctx = source.get()?;
+            let mut report = |step: LocateStep| {
+                let stage = step.stage.map_or("located", LocateStage::name);
+                progress.tell(stage, step.done as u64, step.total as u64);
+            };
             let (mut arrangement, located, _) =
-                locate_image(&ctx, &query, &name, &LocateConfig::default())?;
+                locate_image(&ctx, &query, &name, &LocateConfig::default(), &mut report)?;
             record_located(&mut arrangement, &[located])?;
             Ok(arrangement)
         })?;
@@ -306,13 +298,15 @@ impl ModelsPy {
 
     /// Renders the room as `arrangement` places it, under its solved light: from `camera` (a
     /// `Pinhole`), or as a panorama `width` pixels wide from the arrangement's camera.
-    #[pyo3(signature = (arrangement, camera=None, width=512))]
+    /// `progress`: a callable `("render", pixels done, pixels)` or a `tqdm` bar.
+    #[pyo3(signature = (arrangement, camera=None, width=512, progress=None))]
     fn render(
         &self,
         py: Python<'_>,
         arrangement: &ArrangementPy,
         camera: Option<PyRef<'_, PinholePy>>,
         width: u32,
+        progress: Option<Py<PyAny>>,
     ) -> PyResult<RenderedImagePy> {
         let (camera, pose) = resolve_camera(
             camera.as_deref(),
@@ -321,9 +315,13 @@ impl ModelsPy {
         )?;
         let folder = self.folder.clone();
         let placed = arrangement.arrangement.clone();
-        let view = worker::run(py, None, None, move || {
+        let progress = reporter(progress_callback(py, progress)?, "render");
+        let errors = progress.errors.clone();
+        let view = worker::run(py, None, Some(errors), move || {
             let scene = placed_scene(&folder, placed, Path::new("<arrangement>"), None)?;
-            Ok(render_camera(&scene, &camera, &pose))
+            let report =
+                |share: RenderedShare| progress.report(share.done as u64, share.total as u64);
+            Ok(render_camera(&scene, &camera, &pose, &report))
         })?;
         Ok(RenderedImagePy { view })
     }

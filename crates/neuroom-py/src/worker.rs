@@ -23,7 +23,8 @@ pub type StopFlag = Arc<AtomicBool>;
 /// Runs `work` on a worker thread and waits for it with the interpreter released. On a signal
 /// (Ctrl-C raises `KeyboardInterrupt`) with `stop` given, sets it and waits for the work to stop;
 /// without, returns at once. `errors` holds an exception raised in a callback of the work, raised
-/// in place of the work's own error.
+/// in place of the work's own error: at once when the work cannot be stopped (no `stop`), else once
+/// it has stopped.
 pub fn run<T: Send + 'static>(
     py: Python<'_>,
     stop: Option<StopFlag>,
@@ -51,6 +52,12 @@ pub fn run<T: Send + 'static>(
                 return result.map_err(to_py);
             }
             Err(RecvTimeoutError::Timeout) => {
+                // Work that cannot stop is left behind once a callback raised, as on Ctrl-C.
+                if stop.is_none()
+                    && let Some(raised) = errors.as_ref().and_then(|e| e.take())
+                {
+                    return Err(raised);
+                }
                 if let Err(signal) = py.check_signals() {
                     if let Some(stop) = &stop {
                         stop.store(true, Ordering::SeqCst);
@@ -98,14 +105,23 @@ pub struct CallbackProgress {
 }
 
 impl CallbackProgress {
-    /// Hands `(model, step, total)` to the callback.
+    /// Hands `(model, step, total)` to the callback, the model training now (or the stage the
+    /// reporter was made for).
     pub fn report(&self, step: u64, total: u64) {
+        let model = self.model.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        self.tell(&model, step, total);
+    }
+
+    /// Hands `(stage, step, total)` to the callback, unless an earlier call raised.
+    pub fn tell(&self, stage: &str, step: u64, total: u64) {
         let Some(callback) = &self.callback else {
             return;
         };
-        let model = self.model.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        if self.stop.load(Ordering::SeqCst) {
+            return;
+        }
         Python::attach(|py| {
-            if let Err(e) = callback.call1(py, (model, step, total)) {
+            if let Err(e) = callback.call1(py, (stage, step, total)) {
                 self.errors.keep(e);
                 self.stop.store(true, Ordering::SeqCst);
             }
@@ -132,4 +148,27 @@ impl TrainProgress for CallbackProgress {
     fn interrupted(&self) -> bool {
         self.stop.load(Ordering::SeqCst)
     }
+}
+
+/// A progress argument as a callable `(stage, step, total)`: `neuroom._progress.as_callback`
+/// turns a `tqdm` bar into one and passes callables through.
+pub fn progress_callback(
+    py: Python<'_>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Option<Py<PyAny>>> {
+    let Some(progress) = progress else {
+        return Ok(None);
+    };
+    let adapt = py.import("neuroom._progress")?.getattr("as_callback")?;
+    Ok(Some(adapt.call1((progress,))?.unbind()))
+}
+
+/// A fresh progress reporter around `callback`.
+pub fn reporter(callback: Option<Py<PyAny>>, stage: &str) -> Arc<CallbackProgress> {
+    Arc::new(CallbackProgress {
+        callback,
+        stop: Arc::new(AtomicBool::new(false)),
+        errors: Arc::new(CallbackError::default()),
+        model: Mutex::new(stage.to_string()),
+    })
 }

@@ -12,6 +12,8 @@ use neuroom_core::image::{DepthImage, Image, MaskImage, RgbImage};
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
 use rayon::prelude::*;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Pixels per rayon task (row-major runs).
 const TILE_PIXELS: usize = 512;
@@ -28,7 +30,49 @@ pub fn render_image<F: Field, C: CameraModel + Sync>(
     camera_to_world: &Pose,
     config: &RenderConfig,
 ) -> (RgbImage, DepthImage, MaskImage) {
+    render_image_reporting(scene, camera, camera_to_world, config, &|_| {})
+}
+
+/// How far a render is: pixels rendered of all.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderedShare {
+    /// Pixels rendered so far.
+    pub done: usize,
+    /// All the image's pixels.
+    pub total: usize,
+}
+
+/// Reports of a render this many times at most, evenly spread.
+const PROGRESS_REPORTS: usize = 100;
+
+/// [`render_image`], telling `progress` how far it is about [`PROGRESS_REPORTS`] times, from any of
+/// the render's threads but one at a time and never backwards.
+pub fn render_image_reporting<F: Field, C: CameraModel + Sync>(
+    scene: &Scene<F>,
+    camera: &C,
+    camera_to_world: &Pose,
+    config: &RenderConfig,
+    progress: &(dyn Fn(RenderedShare) + Sync),
+) -> (RgbImage, DepthImage, MaskImage) {
     let (w, h) = (camera.width(), camera.height());
+    let total = w as usize * h as usize;
+    let tiles = total.div_ceil(TILE_PIXELS);
+    let stride = tiles.div_ceil(PROGRESS_REPORTS).max(1);
+    let finished = AtomicUsize::new(0);
+    let reported = Mutex::new(0usize);
+    let tell = |tile_count: usize| {
+        if !tile_count.is_multiple_of(stride) && tile_count != tiles {
+            return;
+        }
+        let mut last = reported.lock().unwrap_or_else(|e| e.into_inner());
+        if tile_count > *last {
+            *last = tile_count;
+            progress(RenderedShare {
+                done: (tile_count * TILE_PIXELS).min(total),
+                total,
+            });
+        }
+    };
     let mut rgb = Image::filled(w, h, [0.0f32; 3]);
     let mut depth = Image::filled(w, h, 0.0f32);
     let mut mask = Image::filled(w, h, 0u16);
@@ -58,6 +102,7 @@ pub fn render_image<F: Field, C: CameraModel + Sync>(
                         d[i] = camera.project(point).map_or(0.0, |(_, z)| z as f32);
                     }
                 }
+                tell(finished.fetch_add(1, Ordering::Relaxed) + 1);
             },
         );
     (rgb, depth, mask)

@@ -38,7 +38,7 @@ pub mod trace;
 pub mod volume;
 
 pub use config::{RenderConfig, RenderStats, Sampling};
-pub use image::render_image;
+pub use image::{RenderedShare, render_image, render_image_reporting};
 pub use renderer::{ObjectGrad, Renderer, SceneGrad};
 pub use scene::{Background, InstanceCodes, Model, Scene, SceneObject, Tone};
 pub use trace::TraceConfig;

@@ -9,8 +9,8 @@ use neuroom_core::{Pose, Ray};
 use neuroom_field::{AnalyticColor, AnalyticField, Group, NeusConfig, NeusField, Params};
 use neuroom_render::volume::RayOutput;
 use neuroom_render::{
-    Background, InstanceCodes, Model, RenderConfig, Renderer, Sampling, Scene, SceneObject, Tone,
-    render_image,
+    Background, InstanceCodes, Model, RenderConfig, RenderedShare, Renderer, Sampling, Scene,
+    SceneObject, Tone, render_image, render_image_reporting,
 };
 
 const ROOM_CENTRE: Vec3 = Vec3::new(0.0, 0.0, 1.5);
@@ -169,6 +169,26 @@ fn depth_and_instance_images_match_exact_intersections() {
         "every instance is seen: {seen:?}"
     );
     assert!(worst < 5e-3 && mean < 1.5e-3);
+}
+
+#[test]
+fn a_reported_render_counts_up_to_every_pixel_and_renders_the_same_image() {
+    let scene = scene(3000.0);
+    let camera = Equirect::new(192, 96).unwrap();
+    let pose = Pose::new(DMat3::IDENTITY, DVec3::new(-0.5, 0.0, 1.2));
+    let config = RenderConfig::default();
+    let reports = std::sync::Mutex::new(Vec::new());
+    let tell = |share: RenderedShare| reports.lock().unwrap().push(share);
+    let reported = render_image_reporting(&scene, &camera, &pose, &config, &tell);
+    let plain = render_image(&scene, &camera, &pose, &config);
+    assert_eq!(reported.0.data, plain.0.data);
+    assert_eq!(reported.2.data, plain.2.data);
+    let reports = reports.into_inner().unwrap();
+    let total = 192 * 96;
+    assert!(reports.len() >= 2, "{} reports", reports.len());
+    assert!(reports.windows(2).all(|p| p[0].done < p[1].done));
+    assert!(reports.iter().all(|r| r.total == total));
+    assert_eq!(reports.last().map(|r| r.done), Some(total));
 }
 
 #[test]

@@ -4,6 +4,7 @@
 //! the report and the glTF export. Every stage keeps its outputs, so an interrupted demo picks up where it
 //! stopped.
 
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -14,7 +15,7 @@ use serde::Serialize;
 use crate::eval::{EvalOptions, Evaluation, evaluate};
 use crate::export::{ExportOptions, export};
 use crate::inspect::{RoomReport, inspect_room};
-use crate::locate::{LocateConfig, locate, test_panoramas};
+use crate::locate::{LocateConfig, LocateProgress, LocateStep, locate, test_panoramas};
 use crate::synth::{StageProgress, synthesize};
 use crate::tour::{Generated, Lens, SequenceOutputs, TourPath, tour};
 use crate::train::{TrainOptions, TrainProgress, TrainSummary, train_room};
@@ -255,8 +256,13 @@ fn locate_panoramas(
         let out = dir.join(format!("{stem}.json"));
         if !out.exists() {
             std::fs::create_dir_all(&dir)?;
-            let label = format!("{stem}: fit");
-            let mut each = |log: &IterationLog| progress.count(&label, log.iteration + 1, total);
+            let (locating, fitting) = (format!("{stem}: locate"), format!("{stem}: fit"));
+            // Both reports go to the one display, one after the other.
+            let shown = RefCell::new(&mut *progress);
+            let mut stage =
+                |step: LocateStep| shown.borrow_mut().count(&locating, step.done, step.total);
+            let mut each =
+                |log: &IterationLog| shown.borrow_mut().count(&fitting, log.iteration + 1, total);
             locate(
                 room,
                 models,
@@ -268,7 +274,10 @@ fn locate_panoramas(
                 &out,
                 &LocateConfig::default(),
                 Some(&fit),
-                &mut each,
+                LocateProgress {
+                    stage: &mut stage,
+                    fit: &mut each,
+                },
             )?;
         }
         solved.push(out);

@@ -470,7 +470,7 @@ fn views_section(scene: &SolvedScene, count: usize) -> anyhow::Result<Section> {
         .enumerate()
     {
         let (camera, camera_to_world) = lens.camera(pose)?;
-        let rgb = crate::view::render_camera(scene, &camera, &camera_to_world).rgb;
+        let rgb = crate::view::render_camera(scene, &camera, &camera_to_world, &|_| {}).rgb;
         views.push(Figure::png(format!("view {} of an orbit", k + 1), &rgb)?);
     }
     Ok(Section::Figures(views))

@@ -18,6 +18,7 @@ use neuroom_core::pose::Pose;
 use neuroom_field::{CodeSet, Codes, NeusField};
 use neuroom_fit::{FitConfig, IterationLog};
 use neuroom_identify::{DetectConfig, DetectorView, Network, NetworkDetector};
+pub use neuroom_locate::LocateStage;
 use neuroom_locate::evidence::{Detector, ResidualDetector, SearchView, colour_error};
 use neuroom_locate::local_light::{LocalLightConfig, RoomLight};
 use neuroom_locate::localize::camera_correlation;
@@ -441,9 +442,10 @@ pub fn locate_image(
     query: &QueryImage,
     image_name: &str,
     config: &LocateConfig,
+    progress: &mut dyn FnMut(LocateStep),
 ) -> anyhow::Result<(Arrangement, Located, SearchView)> {
     let views = [(query.clone(), image_name.to_string())];
-    let (arrangement, mut located, mut object_views) = locate_views(ctx, &views, config)?;
+    let (arrangement, mut located, mut object_views) = locate_views(ctx, &views, config, progress)?;
     let (Some(located), Some(view)) = (located.pop(), object_views.pop()) else {
         anyhow::bail!("{image_name}: nothing located");
     };
@@ -453,19 +455,39 @@ pub fn locate_image(
 /// Locates several views of one arrangement (panoramas or photos, [`QueryImage`]), each on its own,
 /// and merges their objects ([`merge_views`]). The arrangement states the first view's camera and
 /// image; every view's image, camera and intrinsics are listed under `views`. Each view's details and
-/// its view at the found camera (`object_view`) come with it.
+/// its view at the found camera (`object_view`) come with it. `progress` is told each stage as it
+/// starts, and once more when all views are located.
 pub fn locate_views(
     ctx: &LocateContext,
     views: &[(QueryImage, String)],
     config: &LocateConfig,
+    progress: &mut dyn FnMut(LocateStep),
 ) -> anyhow::Result<(Arrangement, Vec<Located>, Vec<SearchView>)> {
     let (first, first_name) = views.first().context("no image to locate")?;
+    let total = views.len() * LocateStage::PLANNED.len();
     let (located, object_views): (Vec<Located>, Vec<SearchView>) = views
         .iter()
-        .map(|(query, name)| locate_view(ctx, query, name, config))
+        .enumerate()
+        .map(|(k, (query, name))| {
+            let mut report = |stage: LocateStage| {
+                progress(LocateStep {
+                    image: name,
+                    stage: Some(stage),
+                    done: k * LocateStage::PLANNED.len() + stage.position(),
+                    total,
+                })
+            };
+            locate_view(ctx, query, name, config, &mut report)
+        })
         .collect::<anyhow::Result<Vec<_>>>()?
         .into_iter()
         .unzip();
+    progress(LocateStep {
+        image: first_name,
+        stage: None,
+        done: total,
+        total,
+    });
     let merged = match located.as_slice() {
         [one] => one.found.clone(),
         _ => {
@@ -502,20 +524,43 @@ pub fn locate_views(
     Ok((arrangement, located, object_views))
 }
 
-/// The camera and the objects of one view, and the view at that camera ([`object_view`]).
+/// Where [`locate_views`] is: the stage starting, as a share of all the planned stages of all views.
+#[derive(Clone, Copy, Debug)]
+pub struct LocateStep<'a> {
+    /// The image being located (the first one once all are).
+    pub image: &'a str,
+    /// The stage starting; `None` once every view is located.
+    pub stage: Option<LocateStage>,
+    /// Planned stages done before it ([`LocateStage::position`]), over all views.
+    pub done: usize,
+    /// All planned stages of all views.
+    pub total: usize,
+}
+
+/// The camera and the objects of one view, and the view at that camera ([`object_view`]);
+/// `progress` is told each stage as it starts.
 fn locate_view(
     ctx: &LocateContext,
     query: &QueryImage,
     image_name: &str,
     config: &LocateConfig,
+    progress: &mut dyn FnMut(LocateStage),
 ) -> anyhow::Result<(Located, SearchView)> {
     let t0 = Instant::now();
     let sphere = query.sphere();
-    let camera = localize(&ctx.scene, &ctx.database, &sphere, &config.localize)
-        .map_err(|m| anyhow::anyhow!("{image_name}: {m}"))?;
+    let camera = localize(
+        &ctx.scene,
+        &ctx.database,
+        &sphere,
+        &config.localize,
+        progress,
+    )
+    .map_err(|m| anyhow::anyhow!("{image_name}: {m}"))?;
     let t1 = Instant::now();
     let (sphere, pose) = levelled_for_search(sphere, &camera.pose())?;
+    progress(LocateStage::View);
     let view = object_view(ctx, &sphere, &pose, config);
+    progress(LocateStage::Detect);
     let detections = detect_objects(ctx, &view, config);
     let input = SearchInput {
         empty: &ctx.scene,
@@ -524,7 +569,7 @@ fn locate_view(
         detections: &detections,
         models: &ctx.objects,
     };
-    let found = find_objects(&input, &config.search);
+    let found = find_objects(&input, &config.search, progress);
     let located = Located {
         camera,
         search_camera: pose.to_rows(),
@@ -676,6 +721,14 @@ pub struct LocateOutputs {
     pub located: Vec<Located>,
 }
 
+/// What [`locate`] tells as it goes: each stage of locating the images, then each iteration of the fit.
+pub struct LocateProgress<'a> {
+    /// Each stage of locating, as it starts ([`locate_views`]).
+    pub stage: &'a mut dyn FnMut(LocateStep),
+    /// Each iteration of the holistic fit.
+    pub fit: &'a mut dyn FnMut(&IterationLog),
+}
+
 /// The images `neuroom locate` is given.
 #[derive(Clone, Copy, Debug)]
 pub struct LocateInput<'a> {
@@ -699,7 +752,7 @@ pub fn locate(
     out: &Path,
     config: &LocateConfig,
     fit: Option<&FitConfig>,
-    progress: &mut dyn FnMut(&IterationLog),
+    progress: LocateProgress,
 ) -> anyhow::Result<LocateOutputs> {
     let LocateInput {
         images,
@@ -717,7 +770,8 @@ pub fn locate(
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
     let ctx = LocateContext::load(room, models, config)?;
-    let (mut arrangement, located, object_views) = locate_views(&ctx, &views, config)?;
+    let (mut arrangement, located, object_views) =
+        locate_views(&ctx, &views, config, progress.stage)?;
     if let Some(dir) = search_views {
         for ((_, name), view) in views.iter().zip(&object_views) {
             let detections = detect_objects(&ctx, view, config);
@@ -741,7 +795,7 @@ pub fn locate(
                 &hints,
                 config.object_light.as_deref(),
                 fit,
-                progress,
+                progress.fit,
             )?;
             let report = result.report();
             let solved = crate::fit::solved_arrangement(&arrangement, &report, name);
@@ -1136,8 +1190,13 @@ pub fn bench_locate(
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         let start = Instant::now();
-        let (initial, located, view) =
-            locate_image(&ctx, &QueryImage::Panorama(image.clone()), &name, config)?;
+        let (initial, located, view) = locate_image(
+            &ctx,
+            &QueryImage::Panorama(image.clone()),
+            &name,
+            config,
+            &mut |_| {},
+        )?;
         let initial_score = fit.map(|_| score_in_room(&ctx.room, &symmetries, &truth, &initial));
         let camera = located.search_pose();
         let arrangement = match fit {

@@ -124,7 +124,7 @@ pub fn bench_locate_photos(
                 rgb: photo_from_panorama(&panorama, &camera, heading),
                 camera,
             };
-            let (found, located, _) = locate_image(&ctx, &query, &name, config)?;
+            let (found, located, _) = locate_image(&ctx, &query, &name, config, &mut |_| {})?;
             let seconds = start.elapsed().as_secs_f64();
             let shown = shown_fractions(&mask.data, mask.width as usize, &camera, heading);
             let (truth_shown, found_shown) = shown_only(&truth, &found, &shown, cut.shown_fraction);

@@ -266,7 +266,7 @@ pub fn render_frames(
     let mut frames = Vec::with_capacity(poses.len());
     for (k, pose) in poses.iter().enumerate() {
         let (camera, camera_to_world) = lens.camera(pose)?;
-        frames.push(render_camera(scene, &camera, &camera_to_world).rgb);
+        frames.push(render_camera(scene, &camera, &camera_to_world, &|_| {}).rgb);
         progress(k + 1, poses.len());
     }
     Ok(frames)

@@ -8,7 +8,8 @@ use neuroom_core::camera::{Camera, Equirect, Pinhole, look_at};
 use neuroom_core::formats::{self, Arrangement, read_arrangement};
 use neuroom_core::image::{DepthImage, MaskImage, RgbImage};
 use neuroom_export::lighting::{LitScene, SceneLight, fit_report_path};
-use neuroom_render::{RenderConfig, render_image};
+pub use neuroom_render::RenderedShare;
+use neuroom_render::{RenderConfig, render_image_reporting};
 
 use crate::edit::{PlacedModels, place_models};
 
@@ -144,16 +145,23 @@ pub fn placed_scene(
 /// Renders `scene` from `camera` (the panorama camera is the arrangement's).
 pub fn render_view(scene: &SolvedScene, camera: &ViewCamera) -> anyhow::Result<RenderedView> {
     let (camera, pose) = camera.resolve(&scene.arrangement.camera_to_world)?;
-    Ok(render_camera(scene, &camera, &pose))
+    Ok(render_camera(scene, &camera, &pose, &|_| {}))
 }
 
-/// Renders `scene` from a camera model at `camera_to_world`.
-pub fn render_camera(scene: &SolvedScene, camera: &Camera, camera_to_world: &Pose) -> RenderedView {
-    let (rgb, depth, mask) = render_image(
+/// Renders `scene` from a camera model at `camera_to_world`, telling `progress` how far it is
+/// ([`render_image_reporting`]).
+pub fn render_camera(
+    scene: &SolvedScene,
+    camera: &Camera,
+    camera_to_world: &Pose,
+    progress: &(dyn Fn(RenderedShare) + Sync),
+) -> RenderedView {
+    let (rgb, depth, mask) = render_image_reporting(
         &scene.lit.scene,
         camera,
         camera_to_world,
         &RenderConfig::default(),
+        progress,
     );
     RenderedView { rgb, depth, mask }
 }

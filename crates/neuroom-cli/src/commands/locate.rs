@@ -1,10 +1,11 @@
 //! `neuroom locate ROOM MODELS PANORAMA -o ARRANGEMENT.json`: camera, objects and poses from a bare
 //! panorama (or a photo with `--intrinsics`).
 
+use std::cell::RefCell;
 use std::path::PathBuf;
 
-use neuroom::fit::FitConfig;
-use neuroom::locate::LocateConfig;
+use neuroom::fit::{FitConfig, IterationLog};
+use neuroom::locate::{LocateConfig, LocateProgress, LocateStep};
 
 use crate::progress::StageBars;
 
@@ -66,7 +67,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .unwrap_or(fit.appearance_iterations);
     let total = (fit.pose_iterations + fit.appearance_iterations) as u64;
     let config = args.search.apply(LocateConfig::default());
-    let mut bars = StageBars::new();
+    // The stages and the fit take turns on the one display.
+    let bars = RefCell::new(StageBars::new());
+    let several = args.images.len() > 1;
+    let mut stage = |step: LocateStep| {
+        let mut bars = bars.borrow_mut();
+        bars.update("locate", step.done as u64, step.total as u64);
+        let what = step.stage.map_or("located", |s| s.name());
+        bars.message(&match several {
+            true => format!("{}: {what}", step.image),
+            false => what.to_string(),
+        });
+    };
+    let mut fitted = |log: &IterationLog| {
+        bars.borrow_mut()
+            .update("fit", log.iteration as u64 + 1, total)
+    };
     let outputs = neuroom::locate::locate(
         &args.room,
         &args.models,
@@ -78,8 +94,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &args.out,
         &config,
         (!args.no_fit).then_some(&fit),
-        &mut |log| bars.update("fit", log.iteration as u64 + 1, total),
+        LocateProgress {
+            stage: &mut stage,
+            fit: &mut fitted,
+        },
     )?;
+    bars.borrow_mut().finish();
     for (image, located) in args.images.iter().zip(&outputs.located) {
         println!(
             "{}: camera found in {:.1} s (alignment score {:.3}, confidence {:.2}); {} detections, {} \
