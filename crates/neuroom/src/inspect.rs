@@ -278,7 +278,11 @@ fn inspect_capture(
             .count(),
         sizes: sizes.into_iter().collect(),
         instance_ids: ids.into_iter().collect(),
-        depth_coverage: with_depth.iter().sum::<f64>() / with_depth.len().max(1) as f64,
+        // An empty sum of floats is −0, which would print as "-0 %".
+        depth_coverage: match with_depth.len() {
+            0 => 0.0,
+            n => with_depth.iter().sum::<f64>() / n as f64,
+        },
     })
 }
 

@@ -12,6 +12,7 @@ pub mod export;
 pub mod figures;
 pub mod fit;
 pub mod identify;
+pub mod import;
 pub mod inspect;
 pub mod locate;
 pub mod locate_photos;
