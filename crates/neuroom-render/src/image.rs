@@ -45,7 +45,7 @@ pub struct RenderedShare {
 /// Reports of a render this many times at most, evenly spread.
 const PROGRESS_REPORTS: usize = 100;
 
-/// [`render_image`], telling `progress` how far it is about [`PROGRESS_REPORTS`] times, from any of
+/// [`render_image`], telling `progress` how far it is about a hundred times, from any of
 /// the render's threads but one at a time and never backwards.
 pub fn render_image_reporting<F: Field, C: CameraModel + Sync>(
     scene: &Scene<F>,

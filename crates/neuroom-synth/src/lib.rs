@@ -14,6 +14,7 @@ pub mod lighting;
 pub mod material;
 pub mod mesh;
 pub mod obj;
+pub mod phone;
 pub mod ply;
 pub mod preset;
 pub mod render;

@@ -3,6 +3,7 @@
 pub mod bench;
 mod bench_figures;
 pub mod bench_suite;
+pub mod degrade;
 pub mod demo;
 pub mod edit;
 pub mod eval;

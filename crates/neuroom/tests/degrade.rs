@@ -1,0 +1,67 @@
+//! `neuroom degrade --phone` on the tiny room of neuroom-core's tests: a room `inspect_room` accepts,
+//! the same seed writing the same files, poses off by what a phone's tracking drifts, and the
+//! panoramas and ground truth left as they were.
+
+use std::path::{Path, PathBuf};
+
+use neuroom::degrade::degrade_room;
+use neuroom::formats::{self, read_capture};
+
+fn tiny_room() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../neuroom-core/tests/rooms/tiny")
+}
+
+fn files(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            out.extend(files(&path));
+        } else {
+            out.push((
+                path.strip_prefix(dir).unwrap().to_path_buf(),
+                std::fs::read(&path).unwrap(),
+            ));
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn a_phone_degraded_room_is_a_room_with_the_same_truth() {
+    let scratch = tempfile::tempdir().unwrap();
+    let (a, b) = (scratch.path().join("a"), scratch.path().join("b"));
+    let degraded = degrade_room(&tiny_room(), &a, 3, &mut |_, _| {}).unwrap();
+    degrade_room(&tiny_room(), &b, 3, &mut |_, _| {}).unwrap();
+    assert_eq!(files(&a), files(&b), "the same seed writes the same files");
+    neuroom::inspect_room(&a).unwrap();
+
+    let room = formats::read_room(tiny_room().join("room.json")).unwrap();
+    let capture = |root: &Path| read_capture(root.join(&room.background.capture)).unwrap();
+    let (exact, phone) = (capture(&tiny_room()), capture(&a));
+    assert_eq!(phone.frames.len(), exact.frames.len());
+    for (p, e) in phone.frames.iter().zip(&exact.frames) {
+        let cm = (p.camera_to_world.translation - e.camera_to_world.translation).length() * 100.0;
+        assert!((0.99..=2.01).contains(&cm), "{cm} cm");
+    }
+    let objects: usize = room
+        .objects_by_capture()
+        .iter()
+        .map(|(c, _)| read_capture(tiny_room().join(c)).unwrap().frames.len())
+        .sum();
+    assert_eq!(degraded.frames, exact.frames.len() + objects);
+    for (name, bytes) in files(&tiny_room().join("panoramas")) {
+        assert_eq!(
+            std::fs::read(a.join("panoramas").join(&name)).unwrap(),
+            bytes,
+            "{}",
+            name.display()
+        );
+    }
+    let again = degrade_room(&tiny_room(), &a, 3, &mut |_, _| {}).unwrap_err();
+    assert!(
+        again.to_string().contains("already holds a room"),
+        "{again}"
+    );
+}
