@@ -23,8 +23,8 @@ pub type StopFlag = Arc<AtomicBool>;
 /// Runs `work` on a worker thread and waits for it with the interpreter released. On a signal
 /// (Ctrl-C raises `KeyboardInterrupt`) with `stop` given, sets it and waits for the work to stop;
 /// without, returns at once. `errors` holds an exception raised in a callback of the work, raised
-/// in place of the work's own error: at once when the work cannot be stopped (no `stop`), else once
-/// it has stopped.
+/// in place of the work's result once the work has ended (training stops at its next step; other
+/// work runs to its end without calling the callback again).
 pub fn run<T: Send + 'static>(
     py: Python<'_>,
     stop: Option<StopFlag>,
@@ -52,12 +52,6 @@ pub fn run<T: Send + 'static>(
                 return result.map_err(to_py);
             }
             Err(RecvTimeoutError::Timeout) => {
-                // Work that cannot stop is left behind once a callback raised, as on Ctrl-C.
-                if stop.is_none()
-                    && let Some(raised) = errors.as_ref().and_then(|e| e.take())
-                {
-                    return Err(raised);
-                }
                 if let Err(signal) = py.check_signals() {
                     if let Some(stop) = &stop {
                         stop.store(true, Ordering::SeqCst);

@@ -461,6 +461,41 @@ pub fn train_model(
     Ok((entry, trainer.field))
 }
 
+/// A trained model scored on the held-out views of `spec`'s capture, which need not be the capture
+/// it was trained on: a model trained on a degraded copy of a room is scored on the original's views
+/// and ground-truth mesh, so the two trainings are judged on the same truth. `entry` is the model's
+/// manifest entry (its light codes); no light-code check is run.
+pub fn evaluate_on_capture(
+    spec: &ModelSpec,
+    entry: &ModelEntry,
+    field: &NeusField<f32>,
+    config: &TrainConfig,
+) -> Result<ModelScore, TrainError> {
+    let (data, _, _) = load_model_data(spec, config)?;
+    let eval = (!data.held_out.is_empty()).then(|| {
+        evaluate(
+            field,
+            &data.held_out,
+            &entry.bounds,
+            &Augmentation::default(),
+            entry.light_codes.capture,
+        )
+    });
+    Ok(ModelScore {
+        eval,
+        chamfer_m: truth_chamfer(spec, field, &entry.bounds)?,
+    })
+}
+
+/// What [`evaluate_on_capture`] measured.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ModelScore {
+    /// Held-out figures (`None` without held-out views).
+    pub eval: Option<EvalReport>,
+    /// Chamfer distance to the ground-truth mesh, when there is one.
+    pub chamfer_m: Option<Chamfer>,
+}
+
 /// Grid cells per side of the mesh extracted for the Chamfer distance.
 pub const MESH_CELLS: u32 = 192;
 /// Points sampled on each mesh for the Chamfer distance.

@@ -43,12 +43,23 @@ pub fn degrade_room(
         .iter()
         .map(|c| formats::read_capture(room.join(c)))
         .collect::<Result<_, _>>()?;
-    copy_except(room, out, &captures)?;
+    // Written beside `out` and moved into place once complete: an interrupted run leaves no room
+    // that looks whole.
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "room".into());
+    let partial = out.with_file_name(format!(".{name}.partial"));
+    if partial.exists() {
+        std::fs::remove_dir_all(&partial)
+            .with_context(|| format!("{}: cannot remove", partial.display()))?;
+    }
+    copy_except(room, &partial, &captures)?;
     let total: usize = read.iter().map(|c| c.frames.len()).sum();
     let model = PhoneModel::default();
     let mut done = 0;
     for (k, (relative, capture)) in captures.iter().zip(&read).enumerate() {
-        let dir = out.join(relative);
+        let dir = partial.join(relative);
         let mut frames = Vec::with_capacity(capture.frames.len());
         for (i, frame) in capture.frames.iter().enumerate() {
             let frame_seed = seed ^ ((k as u64) << 32) ^ i as u64;
@@ -63,6 +74,8 @@ pub fn degrade_room(
         };
         formats::write_capture(&dir, &degraded)?;
     }
+    std::fs::rename(&partial, out)
+        .with_context(|| format!("{}: cannot move into place", out.display()))?;
     Ok(DegradedRoom {
         room: out.to_path_buf(),
         captures: captures.len(),

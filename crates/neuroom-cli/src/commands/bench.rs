@@ -51,6 +51,13 @@ enum Which {
     /// Example: `neuroom bench locate rooms/bedroom models/bedroom --fit --json`, or
     /// `neuroom bench locate rooms/bedroom models/bedroom --photos 4 --json`
     Locate(LocateArgs),
+    /// What phone data costs: the room and its `neuroom degrade --phone` copy trained with the same
+    /// step budgets (cached in `--cache`); per model the held-out PSNR, depth error and Chamfer of
+    /// both on the room's own views and meshes, and locate's figures with either's models on the
+    /// same test panoramas.
+    ///
+    /// Example: `neuroom bench phone ../shared/data/blender-lite --json`
+    Phone(super::bench_phone::PhoneArgs),
     /// The README's results table, made from the figure records (`bench/figures/*.json`) that the
     /// benchmarks write with `--record`.
     ///
@@ -276,6 +283,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         Which::Fit(a) => fit(a)?,
         Which::Locate(a) => run_locate(&a)?,
+        Which::Phone(a) => super::bench_phone::run(&a)?,
         Which::Table(a) => super::bench_figures::table(&a)?,
         Which::Baseline(a) => super::bench_figures::baseline(&a)?,
         Which::Render(a) => {

@@ -2,6 +2,7 @@
 
 pub mod bench;
 mod bench_figures;
+mod bench_phone;
 pub mod bench_suite;
 pub mod degrade;
 pub mod demo;

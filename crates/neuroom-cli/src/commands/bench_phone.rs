@@ -1,0 +1,86 @@
+//! `neuroom bench phone ROOM`: the room and its `--phone` copy trained with the same step budgets and
+//! compared on the room's own truth.
+
+use std::path::PathBuf;
+
+use neuroom::bench_phone::{ModelFigures, PhoneBenchSpec, bench_phone};
+use neuroom::locate::LocateConfig;
+use neuroom::suite::SuiteTraining;
+use neuroom::train::TrainBar;
+
+use super::bench_suite::describe_mean;
+
+/// The arguments of `bench phone`.
+#[derive(clap::Args)]
+pub struct PhoneArgs {
+    /// The room folder.
+    room: PathBuf,
+    /// Where the phone copy and both rooms' models are kept (a second run only scores).
+    #[arg(long, default_value = "suite-models")]
+    cache: PathBuf,
+    /// Training steps per object model, for both.
+    #[arg(long, default_value_t = SuiteTraining::default().object_steps)]
+    object_steps: u64,
+    /// Training steps of the background model, for both.
+    #[arg(long, default_value_t = SuiteTraining::default().background_steps)]
+    background_steps: u64,
+    /// Worker threads of the training (0 = all cores); the same count gives the same models.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Seed of the degradation.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Also print the report as one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+fn figures(f: &ModelFigures) -> String {
+    let show =
+        |v: Option<f64>, unit: &str| v.map_or("–".to_string(), |v| format!("{v:.2} {unit}"));
+    format!(
+        "PSNR {}, depth {}, Chamfer {}",
+        show(f.psnr_db, "dB"),
+        show(f.median_depth_error_mm, "mm"),
+        show(f.chamfer_mm, "mm")
+    )
+}
+
+/// Runs the benchmark.
+pub fn run(a: &PhoneArgs) -> anyhow::Result<()> {
+    let spec = PhoneBenchSpec {
+        room: a.room.clone(),
+        cache: a.cache.clone(),
+        training: SuiteTraining {
+            object_steps: a.object_steps,
+            background_steps: a.background_steps,
+            threads: a.threads,
+            ..SuiteTraining::default()
+        },
+        seed: a.seed,
+        locate: LocateConfig::default(),
+    };
+    let report = bench_phone(&spec, &TrainBar::default(), &mut |note| {
+        println!("== {note}")
+    })?;
+    for m in &report.models {
+        println!("{:<14} room:  {}", m.name, figures(&m.clean));
+        println!("{:<14} phone: {}", "", figures(&m.phone));
+    }
+    println!(
+        "{}",
+        describe_mean("locate, room's models", &report.locate_clean)
+    );
+    println!(
+        "{}",
+        describe_mean("locate, phone's models", &report.locate_phone)
+    );
+    println!(
+        "phone data cost: PSNR up to {:.2} dB, Chamfer up to {:+.2} mm, IoU {:.1} points",
+        report.worst_psnr_loss_db, report.worst_chamfer_increase_mm, report.iou_loss_points
+    );
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    }
+    Ok(())
+}

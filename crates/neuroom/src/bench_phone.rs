@@ -1,0 +1,196 @@
+//! `neuroom bench phone ROOM`: what phone data costs. The room and its `--phone` copy
+//! ([`crate::degrade`]) are trained with the same step budgets; each model trained on the copy is
+//! scored on the original's held-out views and ground-truth mesh, and both rooms' models locate the
+//! same test panoramas, so every difference is the phone's.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use neuroom_field::NeusField;
+use neuroom_train::room::{ModelScore, evaluate_on_capture, load_room_models, model_specs};
+use neuroom_train::{ModelEntry, RoomModels};
+use serde::{Deserialize, Serialize};
+
+use crate::locate::{LocateConfig, LocateMean, bench_locate};
+use crate::suite::{SuiteSpec, SuiteTraining, suite_models};
+use crate::train::TrainProgress;
+
+/// What `neuroom bench phone` runs.
+#[derive(Clone, Debug)]
+pub struct PhoneBenchSpec {
+    /// The room folder.
+    pub room: PathBuf,
+    /// Where the degraded copy and both rooms' models are kept between runs.
+    pub cache: PathBuf,
+    /// Step budgets of both trainings.
+    pub training: SuiteTraining,
+    /// Seed of the degradation.
+    pub seed: u64,
+    /// The locate pipeline (initial poses, no fit).
+    pub locate: LocateConfig,
+}
+
+/// One model's figures on the original room's views and mesh.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ModelFigures {
+    /// Held-out PSNR (dB).
+    pub psnr_db: Option<f64>,
+    /// Median held-out depth error (mm).
+    pub median_depth_error_mm: Option<f64>,
+    /// Mean Chamfer distance to the ground-truth mesh (mm).
+    pub chamfer_mm: Option<f64>,
+}
+
+impl ModelFigures {
+    fn of(score: &ModelScore) -> Self {
+        Self {
+            psnr_db: score.eval.as_ref().map(|e| e.psnr_db),
+            median_depth_error_mm: score
+                .eval
+                .as_ref()
+                .map(|e| e.median_depth_error_m as f64 * 1000.0),
+            chamfer_mm: score.chamfer_m.map(|c| c.mean as f64 * 1000.0),
+        }
+    }
+}
+
+/// One model trained on the room and on its phone copy.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PhoneModelRow {
+    /// The model's name (`background` or the capture's).
+    pub name: String,
+    /// Trained on the room.
+    pub clean: ModelFigures,
+    /// Trained on the phone copy.
+    pub phone: ModelFigures,
+}
+
+/// What phone data cost.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PhoneBenchReport {
+    /// The room's name.
+    pub room: String,
+    /// Per model.
+    pub models: Vec<PhoneModelRow>,
+    /// Locate with the room's models.
+    pub locate_clean: LocateMean,
+    /// Locate (the same panoramas) with the phone copy's models.
+    pub locate_phone: LocateMean,
+    /// The largest held-out PSNR loss of any model (dB; positive: the phone's is worse).
+    pub worst_psnr_loss_db: f64,
+    /// The largest Chamfer increase of any model (mm).
+    pub worst_chamfer_increase_mm: f64,
+    /// Locate's IoU loss (points).
+    pub iou_loss_points: f64,
+}
+
+/// Degrades the room (once, cached), trains both (cached), scores both on the original's truth.
+/// `progress` shows the training; `note` hears each stage.
+pub fn bench_phone(
+    spec: &PhoneBenchSpec,
+    progress: &dyn TrainProgress,
+    note: &mut dyn FnMut(&str),
+) -> anyhow::Result<PhoneBenchReport> {
+    let room = crate::read_room(&spec.room)?;
+    let phone_room = spec
+        .cache
+        .join(format!("{}-phone-seed{}", room.name, spec.seed));
+    if !phone_room.join("room.json").is_file() {
+        note(&format!("degrading into {}", phone_room.display()));
+        crate::degrade::degrade_room(&spec.room, &phone_room, spec.seed, &mut |_, _| {})?;
+    }
+    let suite = SuiteSpec {
+        dirs: Vec::new(),
+        cache: spec.cache.clone(),
+        training: spec.training.clone(),
+        locate: spec.locate.clone(),
+        fit: None,
+        effect: None,
+    };
+    let mut trained = |dir: &Path, what: &str| {
+        suite_models(&suite, dir, progress, &mut |_, models| {
+            note(&format!("{what}: models in {}", models.display()))
+        })
+    };
+    let clean = trained(&spec.room, "room")?;
+    let phone = trained(&phone_room, "phone copy")?;
+    note("scoring the phone copy's models on the room's views and meshes");
+    let models = compare_models(&spec.room, &clean.models, &phone.models, &spec.training)?;
+    note("locating with the room's models");
+    let (_, locate_clean) = bench_locate(
+        &spec.room,
+        &clean.models,
+        &spec.locate,
+        None,
+        None,
+        &mut |_| {},
+    )?;
+    note("locating with the phone copy's models");
+    let (_, locate_phone) = bench_locate(
+        &phone_room,
+        &phone.models,
+        &spec.locate,
+        None,
+        None,
+        &mut |_| {},
+    )?;
+    let worst = |f: &dyn Fn(&PhoneModelRow) -> Option<f64>| {
+        models
+            .iter()
+            .filter_map(f)
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    Ok(PhoneBenchReport {
+        room: room.name,
+        worst_psnr_loss_db: worst(&|m| Some(m.clean.psnr_db? - m.phone.psnr_db?)),
+        worst_chamfer_increase_mm: worst(&|m| Some(m.phone.chamfer_mm? - m.clean.chamfer_mm?)),
+        iou_loss_points: locate_clean.iou_percent - locate_phone.iou_percent,
+        models,
+        locate_clean,
+        locate_phone,
+    })
+}
+
+/// Every model of the room, trained on it (`clean`, its own held-out figures) and on the phone copy
+/// (`phone`, scored on the room's held-out views and meshes).
+fn compare_models(
+    room: &Path,
+    clean: &Path,
+    phone: &Path,
+    training: &SuiteTraining,
+) -> anyhow::Result<Vec<PhoneModelRow>> {
+    let specs = model_specs(&crate::read_room(room)?);
+    let (clean, phone) = (load_room_models(clean)?, load_room_models(phone)?);
+    let config = training.options().config();
+    specs
+        .iter()
+        .map(|spec| {
+            let (clean_entry, _) = model_named(&clean, &spec.name)?;
+            let (phone_entry, phone_field) = model_named(&phone, &spec.name)?;
+            let own = ModelScore {
+                eval: clean_entry.stats.eval.clone(),
+                chamfer_m: clean_entry.stats.chamfer_m,
+            };
+            let crossed = evaluate_on_capture(spec, phone_entry, phone_field, &config)?;
+            Ok(PhoneModelRow {
+                name: spec.name.clone(),
+                clean: ModelFigures::of(&own),
+                phone: ModelFigures::of(&crossed),
+            })
+        })
+        .collect()
+}
+
+/// The model named `name` of `models`, with its field.
+fn model_named<'a>(
+    models: &'a RoomModels,
+    name: &str,
+) -> anyhow::Result<(&'a ModelEntry, &'a NeusField<f32>)> {
+    models
+        .manifest
+        .models
+        .iter()
+        .zip(&models.fields)
+        .find(|(m, _)| m.name == name)
+        .with_context(|| format!("model `{name}` missing from the manifest"))
+}
