@@ -10,6 +10,8 @@ use anyhow::Context as _;
 use neuroom_core::formats::{self, Capture, Frame};
 use neuroom_synth::phone::PhoneModel;
 
+use crate::staging::StagedFolder;
+
 /// What [`degrade_room`] wrote.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct DegradedRoom {
@@ -43,18 +45,10 @@ pub fn degrade_room(
         .iter()
         .map(|c| formats::read_capture(room.join(c)))
         .collect::<Result<_, _>>()?;
-    // Written beside `out` and moved into place once complete: an interrupted run leaves no room
-    // that looks whole.
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "room".into());
-    let partial = out.with_file_name(format!(".{name}.partial"));
-    if partial.exists() {
-        std::fs::remove_dir_all(&partial)
-            .with_context(|| format!("{}: cannot remove", partial.display()))?;
-    }
-    copy_except(room, &partial, &captures)?;
+    // An interrupted run leaves no room that looks whole.
+    let staged = StagedFolder::new(out)?;
+    let partial = staged.path();
+    copy_except(room, partial, &captures)?;
     let total: usize = read.iter().map(|c| c.frames.len()).sum();
     let model = PhoneModel::default();
     let mut done = 0;
@@ -74,8 +68,7 @@ pub fn degrade_room(
         };
         formats::write_capture(&dir, &degraded)?;
     }
-    std::fs::rename(&partial, out)
-        .with_context(|| format!("{}: cannot move into place", out.display()))?;
+    staged.finish()?;
     Ok(DegradedRoom {
         room: out.to_path_buf(),
         captures: captures.len(),

@@ -3,12 +3,13 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context as _;
 use neuroom_core::formats::{self, BackgroundSpec, Room};
 use neuroom_import::nerfstudio::NerfstudioRecording;
 use neuroom_import::scanner_app::ScannerAppRecording;
 use neuroom_import::stray::StrayRecording;
 use neuroom_import::{Recording, import_recording};
+
+use crate::staging::StagedFolder;
 
 pub use neuroom_import::{FrameSize, ImportOptions, WorldUp};
 
@@ -68,14 +69,9 @@ pub fn import_capture(
             Box::new(ScannerAppRecording::open(src, options.min_confidence)?)
         }
     };
-    let partial = room.join("captures").join(format!(".{name}.partial"));
-    if partial.exists() {
-        std::fs::remove_dir_all(&partial)
-            .with_context(|| format!("{}: cannot remove", partial.display()))?;
-    }
-    let capture = import_recording(recording.as_mut(), &partial, options, progress)?;
-    std::fs::rename(&partial, &dir)
-        .with_context(|| format!("{}: cannot move into place", dir.display()))?;
+    let staged = StagedFolder::new(&dir)?;
+    let capture = import_recording(recording.as_mut(), staged.path(), options, progress)?;
+    staged.finish()?;
     let background = name == BACKGROUND_CAPTURE;
     if background {
         register_background(room, &Path::new("captures").join(name))?;

@@ -21,6 +21,7 @@ pub mod locate_photos;
 pub mod relight;
 pub mod scene;
 pub mod score;
+mod staging;
 pub mod suite;
 pub mod synth;
 pub mod tour;
