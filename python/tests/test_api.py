@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 import json
 import pathlib
+import threading
 
 import numpy as np
 import pytest
@@ -184,7 +185,14 @@ def test_render_and_evaluate_report_progress(
     studio_models: neuroom.Models, located: neuroom.Arrangement
 ) -> None:
     reports: list[Report] = []
-    studio_models.render(located, width=256, progress=lambda *r: reports.append(r))
+    threads: set[int] = set()
+
+    def progress(stage: str, step: int, total: int) -> None:
+        reports.append((stage, step, total))
+        threads.add(threading.get_ident())
+
+    studio_models.render(located, width=256, progress=progress)
+    assert threads == {threading.get_ident()}, "callbacks run on the calling thread"
     assert {stage for stage, _, _ in reports} == {"render"}
     done = [step for _, step, _ in reports]
     assert len(done) > 2 and done == sorted(done)

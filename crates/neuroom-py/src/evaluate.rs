@@ -10,7 +10,7 @@ use crate::arrangement::ArrangementPy;
 use crate::error::to_py;
 use crate::models::ModelsPy;
 use crate::room::room_from_python;
-use crate::worker::{self, progress_callback, reporter};
+use crate::worker::{LongCall, OnInterrupt};
 
 /// Scores solved `arrangements` (each an `Arrangement` or a file) of the test panoramas of `room`
 /// (a `Room` or its folder) against their ground truth: 3D IoU, rotation and position errors,
@@ -58,9 +58,8 @@ pub fn evaluate(
         models,
         render_width,
     };
-    let progress = reporter(progress_callback(py, progress)?, "evaluate");
-    let errors = progress.errors.clone();
-    let text = worker::run(py, None, Some(errors), move || {
+    let (call, progress) = LongCall::new(py, progress, "evaluate", OnInterrupt::Abandon)?;
+    let text = call.run(py, move || {
         let total = paths.len() as u64;
         let mut done = 0;
         let mut each = |_: &std::path::Path| {

@@ -21,7 +21,7 @@ use crate::arrays::rgb_from_numpy;
 use crate::camera::{PinholePy, RenderedImagePy, resolve_camera};
 use crate::error::{NeuroomError, to_py};
 use crate::room::{BoxSizes, RoomPy, room_from_python};
-use crate::worker::{self, progress_callback, reporter};
+use crate::worker::{LongCall, OnInterrupt};
 
 /// Locate's context of a model folder, loaded by the first call that needs it and kept.
 type SharedContext = Arc<Mutex<Option<Arc<LocateContext>>>>;
@@ -160,10 +160,9 @@ impl ModelsPy {
             only: only.unwrap_or_default(),
             ..TrainOptions::default()
         };
-        let progress = reporter(progress_callback(py, progress)?, "");
-        let (stop, errors) = (progress.stop.clone(), progress.errors.clone());
+        let (call, progress) = LongCall::new(py, progress, "", OnInterrupt::WaitForStop)?;
         let root = room.root.clone();
-        let summary = worker::run(py, Some(stop), Some(errors), move || {
+        let summary = call.run(py, move || {
             train_room(&root, &out, &options, progress.as_ref())
         })?;
         Self::open_with(summary.dir, room)
@@ -235,9 +234,8 @@ impl ModelsPy {
     ) -> PyResult<ArrangementPy> {
         let (query, name) = query_from_python(image, name)?;
         let source = self.context_source();
-        let progress = reporter(progress_callback(py, progress)?, "locate");
-        let errors = progress.errors.clone();
-        let arrangement = worker::run(py, None, Some(errors), move || {
+        let (call, progress) = LongCall::new(py, progress, "locate", OnInterrupt::Abandon)?;
+        let arrangement = call.run(py, move || {
             let stages = LocateStage::PLANNED.len() as u64;
             progress.tell("loading models", 0, stages);
             let ctx = source.get()?;
@@ -273,10 +271,9 @@ impl ModelsPy {
         config.appearance_iterations =
             appearance_iterations.unwrap_or(config.appearance_iterations);
         let total = (config.pose_iterations + config.appearance_iterations) as u64;
-        let progress = reporter(progress_callback(py, progress)?, "fit");
-        let errors = progress.errors.clone();
+        let (call, progress) = LongCall::new(py, progress, "fit", OnInterrupt::Abandon)?;
         let (source, start) = (self.context_source(), initial.arrangement.clone());
-        let solved = worker::run(py, None, Some(errors), move || {
+        let solved = call.run(py, move || {
             let ctx = source.get()?;
             let hints = relation_hints(&ctx.room);
             let input = ImageFit {
@@ -315,9 +312,8 @@ impl ModelsPy {
         )?;
         let folder = self.folder.clone();
         let placed = arrangement.arrangement.clone();
-        let progress = reporter(progress_callback(py, progress)?, "render");
-        let errors = progress.errors.clone();
-        let view = worker::run(py, None, Some(errors), move || {
+        let (call, progress) = LongCall::new(py, progress, "render", OnInterrupt::Abandon)?;
+        let view = call.run(py, move || {
             let scene = placed_scene(&folder, placed, Path::new("<arrangement>"), None)?;
             let report =
                 |share: RenderedShare| progress.report(share.done as u64, share.total as u64);
@@ -346,7 +342,8 @@ impl ModelsPy {
         let file = EditFile { edits, settle };
         let folder = self.folder.clone();
         let start = arrangement.arrangement.clone();
-        let edited: Arrangement = worker::run(py, None, None, move || {
+        let (call, _) = LongCall::new(py, None, "edit", OnInterrupt::Abandon)?;
+        let edited: Arrangement = call.run(py, move || {
             Ok(edit_in_memory(&folder, &start, &file, Path::new("."))?.0)
         })?;
         Ok(ArrangementPy::new(edited, self.sizes()))
