@@ -13,6 +13,7 @@
 
 pub mod capture_out;
 pub mod convention;
+pub mod masks;
 pub mod nerfstudio;
 pub mod scanner_app;
 pub mod stray;

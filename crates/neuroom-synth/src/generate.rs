@@ -4,12 +4,13 @@
 //! one seed write identical bytes whatever the thread count.
 
 use std::collections::BTreeMap;
+use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::DVec3;
 use neuroom_core::Pose;
-use neuroom_core::camera::{Camera, Equirect, Pinhole};
+use neuroom_core::camera::{Camera, Equirect, Pinhole, look_at};
 use neuroom_core::formats::{
     ArrangedObject, Arrangement, BackgroundSpec, Capture, Frame, Room, RoomObject,
     write_arrangement, write_capture, write_depth, write_mask, write_rgb, write_rgba, write_room,
@@ -24,7 +25,7 @@ use crate::furniture::{Furniture, Stand};
 use crate::illumination::{Hdri, background_lighting, load_hdris, object_lighting, test_lighting};
 use crate::lighting::Lighting;
 use crate::ply::write_ply;
-use crate::preset::Preset;
+use crate::preset::{CapturePlacement, ObjectCaptureConfig, Preset};
 use crate::render::{LightRig, PlacedCamera, RenderedFrame, render};
 use crate::sampler::{Item, Placed, RoomSpace, YawBox};
 use crate::scene::{Instance, TracedScene};
@@ -98,6 +99,9 @@ struct Context<'a> {
     models: Vec<Furniture>,
     /// Model index of every object.
     object_model: Vec<usize>,
+    /// Per model, its capture's frame to the model's canonical frame (identity for isolated
+    /// captures, the room's world to the object for captures in the room).
+    capture_to_object: Vec<Pose>,
     hdris: Vec<Hdri>,
     rays: u64,
 }
@@ -144,6 +148,7 @@ pub fn generate(
         out,
         seed,
         shell: build_shell(size, seed),
+        capture_to_object: vec![Pose::IDENTITY; models.len()],
         models,
         object_model,
         hdris: load_hdris(hdris)?,
@@ -308,12 +313,134 @@ fn capture_id(ctx: &Context, model: usize) -> u16 {
         .map_or(0, |i| i as u16 + 1)
 }
 
-/// One capture per distinct model: the object alone at the origin of its canonical frame.
+/// One capture per distinct model, where the preset's capture placement puts it.
 fn write_object_captures(
     ctx: &mut Context,
     progress: &mut dyn FnMut(StageProgress),
 ) -> Result<usize, SynthError> {
-    let cfg = &ctx.preset.object_capture;
+    match ctx.preset.object_capture.placement {
+        CapturePlacement::Isolated => write_isolated_captures(ctx, progress),
+        CapturePlacement::InRoom => write_in_room_captures(ctx, progress),
+    }
+}
+
+/// Camera distance at which an object of `size` fills a view of `fov_deg`.
+fn framing_distance(size: DVec3, fov_deg: f64) -> f64 {
+    size.length() * 0.5 / (fov_deg.to_radians() / 2.0).sin() * 1.05
+}
+
+/// The square pinhole camera of object captures.
+fn object_capture_camera(cfg: &ObjectCaptureConfig) -> Pinhole {
+    let focal = cfg.resolution as f64 / 2.0 / (cfg.fov_deg.to_radians() / 2.0).tan();
+    let c = cfg.resolution as f64 / 2.0;
+    Pinhole::new(cfg.resolution, cfg.resolution, focal, focal, c, c)
+}
+
+/// What a model's capture is rendered from.
+struct CaptureShoot<'a> {
+    scene: TracedScene,
+    rig: &'a LightRig,
+    lighting: &'a Lighting,
+    camera: Pinhole,
+    /// Alpha kept (an object alone) or dropped (an object in the room).
+    rgba: bool,
+}
+
+/// Renders model `m`'s capture from `poses` into `captures/<name>`; returns the views written.
+fn shoot_capture(
+    ctx: &mut Context,
+    m: usize,
+    shoot: &CaptureShoot,
+    poses: Vec<Pose>,
+    progress: &mut dyn FnMut(StageProgress),
+) -> Result<usize, SynthError> {
+    let name = ctx.models[m].name.clone();
+    let dir = ctx.out.join("captures").join(&name);
+    let stage = format!("object:{name}");
+    let quality = ctx.preset.object_capture.quality;
+    let total = poses.len();
+    let mut frames = Vec::new();
+    for (i, pose) in poses.into_iter().enumerate() {
+        let view = PlacedCamera {
+            camera: Camera::Pinhole(shoot.camera),
+            camera_to_world: pose,
+        };
+        let stream = ((m as u64 + 1) << 20) + i as u64;
+        let rendered = render(&shoot.scene, shoot.rig, &view, quality, ctx.seed, stream);
+        ctx.rays += rendered.rays;
+        frames.push(write_view(
+            &dir,
+            i,
+            &rendered,
+            shoot.camera,
+            pose,
+            shoot.rgba,
+        )?);
+        progress(StageProgress {
+            stage: &stage,
+            done: i + 1,
+            total,
+        });
+    }
+    write_capture(&dir, &capture_with_lighting(&dir, frames, shoot.lighting))?;
+    Ok(total)
+}
+
+/// One capture per distinct model standing on the floor in the middle of the empty room, turned
+/// by a seeded yaw, under the room's light: views around it inside the room, masks true to the
+/// pixel (the object's id on it, 0 on the room).
+fn write_in_room_captures(
+    ctx: &mut Context,
+    progress: &mut dyn FnMut(StageProgress),
+) -> Result<usize, SynthError> {
+    let cfg = ctx.preset.object_capture.clone();
+    let size = ctx.shell.size;
+    let lighting = background_lighting(size, &ctx.hdris[0].name);
+    let rig = LightRig::new(
+        &lighting,
+        Some(ctx.hdris[0].environment),
+        Some(ctx.shell.bounce),
+        ROOM_AO_DISTANCE,
+    );
+    // Eyes stay this far inside the walls, floor and ceiling.
+    let margin = 0.2;
+    let mut total = 0;
+    for m in 0..ctx.models.len() {
+        let f = &ctx.models[m];
+        let mut rng = Pcg64::seed_from_u64(ctx.seed ^ (0x1A20_0C00 + m as u64));
+        let centre = DVec3::new(size.x / 2.0, size.y / 2.0, f.size.z / 2.0);
+        let placed = Pose::from_yaw_translation(rng.random_range(0.0..TAU), centre);
+        let shoot = CaptureShoot {
+            scene: TracedScene::new(vec![
+                Instance::new(ctx.shell.model.clone(), Pose::IDENTITY, 0),
+                Instance::new(f.model.clone(), placed, capture_id(ctx, m)),
+            ]),
+            rig: &rig,
+            lighting: &lighting,
+            camera: object_capture_camera(&cfg),
+            rgba: false,
+        };
+        let distance = framing_distance(f.size, cfg.fov_deg);
+        let poses = sphere_band(cfg.views, distance, cfg.elevation_deg, &mut rng)
+            .into_iter()
+            .map(|around| {
+                let eye = (centre + around.translation)
+                    .clamp(DVec3::splat(margin), size - DVec3::splat(margin));
+                look_at(eye, centre)
+            })
+            .collect();
+        total += shoot_capture(ctx, m, &shoot, poses, progress)?;
+        ctx.capture_to_object[m] = placed.inverse();
+    }
+    Ok(total)
+}
+
+/// One capture per distinct model: the object alone at the origin of its canonical frame.
+fn write_isolated_captures(
+    ctx: &mut Context,
+    progress: &mut dyn FnMut(StageProgress),
+) -> Result<usize, SynthError> {
+    let cfg = ctx.preset.object_capture.clone();
     let lighting = object_lighting(&ctx.hdris[0].name);
     let rig = LightRig::new(
         &lighting,
@@ -321,42 +448,24 @@ fn write_object_captures(
         None,
         f32::INFINITY,
     );
-    let focal = cfg.resolution as f64 / 2.0 / (cfg.fov_deg.to_radians() / 2.0).tan();
-    let c = cfg.resolution as f64 / 2.0;
-    let camera = Pinhole::new(cfg.resolution, cfg.resolution, focal, focal, c, c);
     let mut total = 0;
-    for (m, f) in ctx.models.iter().enumerate() {
-        let dir = ctx.out.join("captures").join(&f.name);
-        let scene = TracedScene::new(vec![Instance::new(
-            f.model.clone(),
-            Pose::IDENTITY,
-            capture_id(ctx, m),
-        )]);
-        let radius = f.size.length() * 0.5;
-        let distance = radius / (cfg.fov_deg.to_radians() / 2.0).sin() * 1.05;
+    for m in 0..ctx.models.len() {
+        let f = &ctx.models[m];
+        let shoot = CaptureShoot {
+            scene: TracedScene::new(vec![Instance::new(
+                f.model.clone(),
+                Pose::IDENTITY,
+                capture_id(ctx, m),
+            )]),
+            rig: &rig,
+            lighting: &lighting,
+            camera: object_capture_camera(&cfg),
+            rgba: true,
+        };
+        let distance = framing_distance(f.size, cfg.fov_deg);
         let mut rng = Pcg64::seed_from_u64(ctx.seed ^ (0x0B1E_C700 + m as u64));
-        let mut frames = Vec::new();
-        let stage = format!("object:{}", f.name);
-        for (i, pose) in sphere_band(cfg.views, distance, cfg.elevation_deg, &mut rng)
-            .into_iter()
-            .enumerate()
-        {
-            let view = PlacedCamera {
-                camera: Camera::Pinhole(camera),
-                camera_to_world: pose,
-            };
-            let stream = ((m as u64 + 1) << 20) + i as u64;
-            let rendered = render(&scene, &rig, &view, cfg.quality, ctx.seed, stream);
-            ctx.rays += rendered.rays;
-            frames.push(write_view(&dir, i, &rendered, camera, pose, true)?);
-            progress(StageProgress {
-                stage: &stage,
-                done: i + 1,
-                total: cfg.views as usize,
-            });
-        }
-        total += frames.len();
-        write_capture(&dir, &capture_with_lighting(&dir, frames, &lighting))?;
+        let poses = sphere_band(cfg.views, distance, cfg.elevation_deg, &mut rng);
+        total += shoot_capture(ctx, m, &shoot, poses, progress)?;
     }
     Ok(total)
 }
@@ -557,7 +666,7 @@ fn write_room_files(
                 category: f.category.clone(),
                 capture: Path::new("captures").join(&f.name),
                 size: f.size,
-                capture_to_object: Pose::IDENTITY,
+                capture_to_object: ctx.capture_to_object[ctx.object_model[i]],
                 relations: relations(f, o.on.as_deref()),
             }
         })

@@ -41,6 +41,21 @@ pub struct ObjectCaptureConfig {
     pub elevation_deg: [f64; 2],
     /// Sampling effort.
     pub quality: Quality,
+    /// Where the object stands while it is captured.
+    #[serde(default)]
+    pub placement: CapturePlacement,
+}
+
+/// Where an object stands while it is captured.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CapturePlacement {
+    /// Alone in front of nothing (alpha 0 around it), at the origin of its canonical frame.
+    #[default]
+    Isolated,
+    /// Standing in the middle of the empty room, under the room's light, as a phone scan of it
+    /// would be: the capture is in the room's world, its masks tell the object from the room.
+    InRoom,
 }
 
 /// The background capture: the empty room from inside.
@@ -117,6 +132,7 @@ fn full_sizes() -> (ObjectCaptureConfig, BackgroundConfig, PanoramaConfig) {
             fov_deg: 45.0,
             elevation_deg: [-15.0, 80.0],
             quality: Quality { spp: 4, ao_rays: 2 },
+            placement: CapturePlacement::Isolated,
         },
         BackgroundConfig {
             views: 60,

@@ -67,7 +67,15 @@ pub fn run_baseline(
 ) -> anyhow::Result<FigureRecord> {
     let room = work.join("room");
     if !room.join("room.json").is_file() {
-        crate::synth::synthesize(&case.name, &room, case.seed, None, &[], &mut |_| {})?;
+        crate::synth::synthesize(
+            &case.name,
+            &room,
+            case.seed,
+            None,
+            &[],
+            crate::synth::CapturePlacement::Isolated,
+            &mut |_| {},
+        )?;
     }
     let trained = train_room(&room, &work.join("models"), &case.options(), progress)?;
     anyhow::ensure!(

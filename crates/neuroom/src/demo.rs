@@ -16,7 +16,7 @@ use crate::eval::{EvalOptions, Evaluation, evaluate};
 use crate::export::{ExportOptions, export};
 use crate::inspect::{RoomReport, inspect_room};
 use crate::locate::{LocateConfig, LocateProgress, LocateStep, locate, test_panoramas};
-use crate::synth::{StageProgress, synthesize};
+use crate::synth::{CapturePlacement, StageProgress, synthesize};
 use crate::tour::{Generated, Lens, SequenceOutputs, TourPath, tour};
 use crate::train::{TrainOptions, TrainProgress, TrainSummary, train_room};
 use crate::view::ViewCamera;
@@ -124,7 +124,15 @@ pub fn run(config: &DemoConfig, progress: &mut dyn DemoProgress) -> anyhow::Resu
             DemoSize::Full => "bedroom",
         };
         let p = &mut *stages.progress;
-        synthesize(preset, &room, config.seed, None, &[], &mut |s| p.synth(s))?;
+        synthesize(
+            preset,
+            &room,
+            config.seed,
+            None,
+            &[],
+            CapturePlacement::Isolated,
+            &mut |s| p.synth(s),
+        )?;
     }
     stages.begin("checking every file of the room");
     let report = inspect_room(&room)?;

@@ -72,6 +72,8 @@ pub struct CaptureReport {
     pub instance_ids: Vec<u16>,
     /// Fraction of depth pixels that hold a value, over frames with depth.
     pub depth_coverage: f64,
+    /// Fraction of mask pixels on an object (a nonzero id), over frames with masks.
+    pub mask_coverage: f64,
 }
 
 /// One test panorama.
@@ -237,7 +239,7 @@ fn files_in(dir: &Path) -> Vec<PathBuf> {
 /// What decoding one frame found.
 struct FrameFacts {
     size: (u32, u32),
-    ids: BTreeSet<u16>,
+    mask: Option<MaskFacts>,
     depth_valid: Option<f64>,
     conversions: Vec<String>,
 }
@@ -257,7 +259,9 @@ fn inspect_capture(
     let mut sizes = BTreeSet::new();
     let mut conversions: BTreeMap<String, usize> = BTreeMap::new();
     for fact in &facts {
-        ids.extend(fact.ids.iter().copied());
+        if let Some(mask) = &fact.mask {
+            ids.extend(mask.ids.iter().copied());
+        }
         sizes.insert(fact.size);
         for c in &fact.conversions {
             *conversions.entry(c.clone()).or_default() += 1;
@@ -267,6 +271,10 @@ fn inspect_capture(
         notes.push(format!("{}: {count} images: {what}", dir.display()));
     }
     let with_depth: Vec<f64> = facts.iter().filter_map(|f| f.depth_valid).collect();
+    let masked: Vec<f64> = facts
+        .iter()
+        .filter_map(|f| f.mask.as_ref().map(|m| m.on_objects))
+        .collect();
     Ok(CaptureReport {
         dir: dir.to_path_buf(),
         frames: capture.frames.len(),
@@ -282,6 +290,10 @@ fn inspect_capture(
         depth_coverage: match with_depth.len() {
             0 => 0.0,
             n => with_depth.iter().sum::<f64>() / n as f64,
+        },
+        mask_coverage: match masked.len() {
+            0 => 0.0,
+            n => masked.iter().sum::<f64>() / n as f64,
         },
     })
 }
@@ -316,26 +328,39 @@ fn inspect_frame(
         }
         None => None,
     };
-    let ids = match &frame.instance {
-        Some(p) => read_checked_mask(&capture.resolve(p), &image_path, size, known)?,
-        None => BTreeSet::new(),
+    let mask = match &frame.instance {
+        Some(p) => Some(read_checked_mask(
+            &capture.resolve(p),
+            &image_path,
+            size,
+            known,
+        )?),
+        None => None,
     };
     Ok(FrameFacts {
         size,
-        ids,
+        mask,
         depth_valid,
         conversions,
     })
 }
 
+/// What an instance mask holds.
+struct MaskFacts {
+    /// The ids in it.
+    ids: BTreeSet<u16>,
+    /// The share of its pixels on an object (a nonzero id).
+    on_objects: f64,
+}
+
 /// Reads the instance mask at `path`, checks that it is the size of its image and holds only ids that
-/// room.json lists, and returns the ids it holds.
+/// room.json lists, and says what it holds.
 fn read_checked_mask(
     path: &Path,
     image: &Path,
     size: (u32, u32),
     known: &BTreeMap<u16, &str>,
-) -> FormatResult<BTreeSet<u16>> {
+) -> FormatResult<MaskFacts> {
     let mask = formats::read_mask(path)?;
     formats::check_same_size(image, size, path, (mask.width, mask.height))?;
     let ids: BTreeSet<u16> = mask.data.iter().copied().collect();
@@ -345,7 +370,9 @@ fn read_checked_mask(
             format!("holds instance id {bad}, which room.json does not list"),
         ));
     }
-    Ok(ids)
+    let on_objects =
+        mask.data.iter().filter(|id| **id != 0).count() as f64 / mask.data.len().max(1) as f64;
+    Ok(MaskFacts { ids, on_objects })
 }
 
 fn inspect_panoramas(
@@ -536,13 +563,14 @@ impl std::fmt::Display for CaptureReport {
         let sizes: Vec<String> = self.sizes.iter().map(|(w, h)| format!("{w}×{h}")).collect();
         write!(
             f,
-            "{}: {} frames ({}), {} with depth ({:.0} % valid), {} with masks, ids {:?}",
+            "{}: {} frames ({}), {} with depth ({:.0} % valid), {} with masks ({:.1} % on objects), ids {:?}",
             self.dir.display(),
             self.frames,
             sizes.join(", "),
             self.with_depth,
             self.depth_coverage * 100.0,
             self.with_mask,
+            self.mask_coverage * 100.0,
             self.instance_ids
         )
     }

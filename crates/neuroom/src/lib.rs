@@ -18,6 +18,7 @@ pub mod import;
 pub mod inspect;
 pub mod locate;
 pub mod locate_photos;
+pub mod masks;
 pub mod relight;
 pub mod scene;
 pub mod score;

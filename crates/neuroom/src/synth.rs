@@ -3,19 +3,22 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
+pub use neuroom_synth::preset::CapturePlacement;
 pub use neuroom_synth::{Preset, StageProgress, Summary};
 
 /// Generates the room of preset `preset` (`tiny`, `bedroom`, `living`, `office`) into `out`.
-/// With no `hdris`, the vendored maps light it.
+/// With no `hdris`, the vendored maps light it. `placement` says where the objects stand while they
+/// are captured (alone, or in the room for scans whose masks are made automatically).
 pub fn synthesize(
     preset: &str,
     out: &Path,
     seed: u64,
     furniture: Option<&Path>,
     hdris: &[PathBuf],
+    placement: CapturePlacement,
     progress: &mut dyn FnMut(StageProgress),
 ) -> anyhow::Result<Summary> {
-    let preset = Preset::named(preset).with_context(|| {
+    let mut preset = Preset::named(preset).with_context(|| {
         format!(
             "unknown preset `{preset}`; choose one of {}",
             neuroom_synth::PRESET_NAMES.join(", ")
@@ -26,6 +29,7 @@ pub fn synthesize(
     } else {
         hdris.to_vec()
     };
+    preset.object_capture.placement = placement;
     Ok(neuroom_synth::generate(
         &preset, out, seed, furniture, &hdris, progress,
     )?)

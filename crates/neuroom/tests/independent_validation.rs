@@ -38,8 +38,16 @@ fn validate(room: &Path, args: &[&str]) -> (i32, String) {
 
 fn synth_tiny(seed: u64) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    neuroom::synth::synthesize("tiny", dir.path(), seed, None, &[], &mut |_| {})
-        .unwrap_or_else(|e| panic!("synthesize tiny seed {seed}: {e:#}"));
+    neuroom::synth::synthesize(
+        "tiny",
+        dir.path(),
+        seed,
+        None,
+        &[],
+        neuroom::synth::CapturePlacement::Isolated,
+        &mut |_| {},
+    )
+    .unwrap_or_else(|e| panic!("synthesize tiny seed {seed}: {e:#}"));
     dir
 }
 

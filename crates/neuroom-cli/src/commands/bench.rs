@@ -51,6 +51,12 @@ enum Which {
     /// Example: `neuroom bench locate rooms/bedroom models/bedroom --fit --json`, or
     /// `neuroom bench locate rooms/bedroom models/bedroom --photos 4 --json`
     Locate(LocateArgs),
+    /// Automatic object masks against the true ones: for every object captured standing in the room
+    /// (`neuroom synth --objects-in-room`), the masks `neuroom masks` makes with a proposed box, and
+    /// their IoU with the capture's true masks over all frames; the mean and the worst object.
+    ///
+    /// Example: `neuroom bench masks rooms/tiny-in-room --models models/tiny-in-room --json`
+    Masks(super::bench_masks::MasksArgs),
     /// What phone data costs: the room and its `neuroom degrade --phone` copy trained with the same
     /// step budgets (cached in `--cache`); per model the held-out PSNR, depth error and Chamfer of
     /// both on the room's own views and meshes, and locate's figures with either's models on the
@@ -283,6 +289,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         Which::Fit(a) => fit(a)?,
         Which::Locate(a) => run_locate(&a)?,
+        Which::Masks(a) => super::bench_masks::run(&a)?,
         Which::Phone(a) => super::bench_phone::run(&a)?,
         Which::Table(a) => super::bench_figures::table(&a)?,
         Which::Baseline(a) => super::bench_figures::baseline(&a)?,

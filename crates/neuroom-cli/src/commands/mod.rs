@@ -2,6 +2,7 @@
 
 pub mod bench;
 mod bench_figures;
+pub mod bench_masks;
 mod bench_phone;
 pub mod bench_suite;
 pub mod degrade;
@@ -13,6 +14,7 @@ pub mod fit;
 pub mod import;
 pub mod info;
 pub mod locate;
+pub mod masks;
 mod pinhole;
 mod record_args;
 pub mod relight;

@@ -2,6 +2,8 @@
 
 use std::path::PathBuf;
 
+use neuroom::synth::CapturePlacement;
+
 use crate::progress::StageBars;
 
 /// Generate a synthetic room with ground truth (captures, test panoramas, arrangements, meshes).
@@ -24,6 +26,11 @@ pub struct Args {
     /// HDR environment maps (.hdr, .exr, .exr.js) for ambient light; default: the vendored ones.
     #[arg(long)]
     hdri: Vec<PathBuf>,
+    /// Capture each object standing in the middle of the empty room, under the room's light, as a
+    /// phone scan of it would be (true masks tell it from the room; `neuroom bench masks` makes
+    /// them without), instead of alone.
+    #[arg(long)]
+    objects_in_room: bool,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -38,6 +45,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.seed,
         args.furniture.as_deref(),
         &args.hdri,
+        if args.objects_in_room {
+            CapturePlacement::InRoom
+        } else {
+            CapturePlacement::Isolated
+        },
         &mut |p| bars.update(p.stage, p.done as u64, p.total as u64),
     )?;
     bars.finish();
