@@ -6,6 +6,7 @@
 
 pub mod camera;
 pub mod camera_effects;
+pub mod depth_upsample;
 pub mod error;
 pub mod formats;
 pub mod image;

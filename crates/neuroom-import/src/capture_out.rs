@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use image::imageops::FilterType;
 use neuroom_core::camera::Pinhole;
+use neuroom_core::depth_upsample::upsample_depth;
 use neuroom_core::formats::{self, Capture, Frame, transforms::DEFAULT_DEPTH_UNIT};
 use neuroom_core::image::{DepthImage, Image, RgbImage};
 use neuroom_core::pose::Pose;
@@ -78,8 +79,8 @@ impl CaptureWriter {
     }
 
     /// Writes `frame` at the writer's size: colour resized (area-weighted), intrinsics scaled with
-    /// it, depth resampled onto its pixels (nearest, so no depth is made up between a near and a
-    /// far surface).
+    /// it, depth upsampled onto its pixels (inverse depth interpolated on one surface, the nearest
+    /// sample across an edge: `neuroom_core::depth_upsample`).
     pub fn push(&mut self, frame: SourceFrame) -> anyhow::Result<()> {
         let (w, h) = self.size.of(frame.rgb.width, frame.rgb.height);
         let rgb = resize_rgb(&frame.rgb, w, h);
@@ -90,7 +91,11 @@ impl CaptureWriter {
         let depth = match &frame.depth {
             Some(d) => {
                 let path = PathBuf::from(format!("depths/{stem}.png"));
-                formats::write_depth(self.dir.join(&path), &nearest(d, w, h), DEFAULT_DEPTH_UNIT)?;
+                formats::write_depth(
+                    self.dir.join(&path),
+                    &upsample_depth(d, w, h),
+                    DEFAULT_DEPTH_UNIT,
+                )?;
                 Some(path)
             }
             None => None,
@@ -162,21 +167,6 @@ fn resize_rgb(rgb: &RgbImage, width: u32, height: u32) -> RgbImage {
     }
 }
 
-/// `depth` sampled at the centres of a `width × height` grid over the same field of view.
-pub fn nearest(depth: &DepthImage, width: u32, height: u32) -> DepthImage {
-    let mut out = Image::filled(width, height, 0.0f32);
-    for v in 0..height {
-        let sv =
-            (((v as f64 + 0.5) * depth.height as f64 / height as f64) as u32).min(depth.height - 1);
-        for u in 0..width {
-            let su = (((u as f64 + 0.5) * depth.width as f64 / width as f64) as u32)
-                .min(depth.width - 1);
-            out.set(u, v, *depth.get(su, sv));
-        }
-    }
-    out
-}
-
 /// A phone LiDAR depth map (16-bit millimetres) in metres, without the pixels its confidence map
 /// (ARKit: 0 low, 1 medium, 2 high; when the file exists) rates below `min_confidence`.
 pub fn read_lidar_depth(
@@ -238,20 +228,6 @@ mod tests {
         let full = (camera.fx * x + camera.cx, camera.fy * y + camera.cy);
         let scaled = (small.fx * x + small.cx, small.fy * y + small.cy);
         assert!((full.0 / 3.0 - scaled.0).abs() < 1e-9 && (full.1 / 3.0 - scaled.1).abs() < 1e-9);
-    }
-
-    #[test]
-    fn nearest_depth_keeps_values_and_holes() {
-        let mut depth = Image::filled(4, 3, 1.0f32);
-        depth.set(3, 2, 0.0);
-        depth.set(0, 0, 2.5);
-        let up = nearest(&depth, 8, 6);
-        assert_eq!(*up.get(0, 0), 2.5);
-        assert_eq!(*up.get(1, 1), 2.5);
-        assert_eq!(*up.get(7, 5), 0.0);
-        assert_eq!(*up.get(6, 4), 0.0);
-        assert_eq!(*up.get(5, 4), 1.0);
-        assert!(up.data.iter().all(|d| [0.0, 1.0, 2.5].contains(d)));
     }
 
     #[test]

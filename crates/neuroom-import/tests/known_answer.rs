@@ -7,10 +7,10 @@ use std::path::Path;
 
 use glam::{DMat3, DQuat, DVec3};
 use neuroom_core::camera::Pinhole;
+use neuroom_core::depth_upsample::upsample_depth;
 use neuroom_core::formats::{self, Capture};
 use neuroom_core::image::{DepthImage, Image, RgbImage};
 use neuroom_core::pose::Pose;
-use neuroom_import::capture_out::nearest;
 use neuroom_import::nerfstudio::NerfstudioRecording;
 use neuroom_import::scanner_app::ScannerAppRecording;
 use neuroom_import::stray::{read_camera_matrix, read_odometry};
@@ -148,7 +148,7 @@ fn assert_frames(capture: &Capture, truth: &[TrueFrame], colour_tolerance: f32) 
             capture.depth_unit_scale_factor,
         )
         .unwrap();
-        let expected = nearest(&t.depth, WIDTH, HEIGHT);
+        let expected = upsample_depth(&t.depth, WIDTH, HEIGHT);
         for (d, e) in depth.data.iter().zip(&expected.data) {
             assert!((d - e).abs() <= 0.0006, "frame {k}: depth {d} where {e}");
         }
