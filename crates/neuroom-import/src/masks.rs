@@ -2,8 +2,9 @@
 //! trained (docs/capture.md, "Scanning an object in its room").
 //!
 //! A pixel shows the object when its depth puts it in the room's free space: the observed point
-//! lies farther from the empty room's surface than a tolerance. The tolerance is measured, not assumed: three standard deviations of how far the scan's
-//! points lie from the room's surface, so it follows the model's accuracy and the depth's noise.
+//! lies farther from the empty room's surface than a tolerance. The tolerance is measured, not
+//! assumed: three standard deviations of how far the scan's points lie from the room's surface, so
+//! it follows the model's accuracy and the depth's noise.
 //! Only points inside the object's box count (given, or proposed as the largest cluster of free
 //! points that several views agree on), and the masks are cleaned up across views as space carving
 //! does: a point that most of the views able to see it see past (their depth lies beyond it) is
@@ -124,11 +125,12 @@ const PROPOSAL_VIEWS: usize = 2;
 /// A point is carved away when more than this share of the views that could see it see past it.
 const SEE_THROUGH_SHARE: f64 = 0.5;
 
-/// A pixel's observed point.
+/// A pixel's observed point and its signed distance to the room's surface.
 #[derive(Clone, Copy)]
 struct ObservedPoint {
     pixel: usize,
     world: DVec3,
+    residual: f32,
 }
 
 /// The object's masks in `frames`, cut by `surface` (the empty room), inside `bounds` when given,
@@ -140,11 +142,19 @@ pub fn object_masks(
     options: &MaskOptions,
 ) -> anyhow::Result<ObjectMasks> {
     anyhow::ensure!(!frames.is_empty(), "the scan has no frames");
-    let observed: Vec<Vec<ObservedPoint>> = frames.iter().map(observed_points).collect();
-    let tolerance = surface_tolerance(&observed, surface);
-    let free: Vec<Vec<ObservedPoint>> = observed
+    let observed: Vec<Vec<ObservedPoint>> = frames
         .iter()
-        .map(|points| free_space_points(points, surface, tolerance))
+        .map(|frame| observed_points(frame, surface))
+        .collect();
+    let tolerance = surface_tolerance(&observed);
+    let free: Vec<Vec<ObservedPoint>> = observed
+        .into_iter()
+        .map(|points| {
+            points
+                .into_iter()
+                .filter(|p| p.residual as f64 > tolerance)
+                .collect()
+        })
         .collect();
     let bounds = match bounds {
         Some(b) => b,
@@ -185,10 +195,11 @@ pub fn object_masks(
     })
 }
 
-/// Every pixel with depth as a world point.
-fn observed_points(frame: &DepthFrame) -> Vec<ObservedPoint> {
+/// Every pixel with depth as a world point, with its distance to `surface`.
+fn observed_points(frame: &DepthFrame, surface: &dyn RoomSurface) -> Vec<ObservedPoint> {
     let (w, h) = (frame.camera.width as usize, frame.camera.height as usize);
-    let mut points = Vec::new();
+    let mut pixels = Vec::new();
+    let mut world = Vec::new();
     for y in 0..h {
         for x in 0..w {
             let pixel = y * w + x;
@@ -198,33 +209,35 @@ fn observed_points(frame: &DepthFrame) -> Vec<ObservedPoint> {
             }
             let centre = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
             let local = frame.camera.unproject(centre, depth as f64);
-            let world = frame.camera_to_world.transform_point(local);
-            points.push(ObservedPoint { pixel, world });
+            pixels.push(pixel);
+            world.push(frame.camera_to_world.transform_point(local));
         }
     }
-    points
-}
-
-/// Signed distances of many points, batched for the field.
-fn distances(surface: &dyn RoomSurface, points: &[DVec3]) -> Vec<f32> {
-    let query: Vec<Vec3> = points.iter().map(|p| p.as_vec3()).collect();
-    let mut out = vec![0.0; query.len()];
-    surface.signed_distance(&query, &mut out);
-    out
+    // One batched query per frame, for the field.
+    let query: Vec<Vec3> = world.iter().map(|p| p.as_vec3()).collect();
+    let mut residuals = vec![0.0; query.len()];
+    surface.signed_distance(&query, &mut residuals);
+    pixels
+        .into_iter()
+        .zip(world)
+        .zip(residuals)
+        .map(|((pixel, world), residual)| ObservedPoint {
+            pixel,
+            world,
+            residual,
+        })
+        .collect()
 }
 
 /// How far the scan's points on the room lie from its surface: |median| + 3 robust standard
 /// deviations of the residuals near the surface, within [`TOLERANCE_RANGE`].
-fn surface_tolerance(observed: &[Vec<ObservedPoint>], surface: &dyn RoomSurface) -> f64 {
-    let mut near: Vec<f32> = Vec::new();
-    for points in observed {
-        let world: Vec<DVec3> = points.iter().map(|p| p.world).collect();
-        near.extend(
-            distances(surface, &world)
-                .into_iter()
-                .filter(|d| d.abs() < RESIDUAL_WINDOW),
-        );
-    }
+fn surface_tolerance(observed: &[Vec<ObservedPoint>]) -> f64 {
+    let mut near: Vec<f32> = observed
+        .iter()
+        .flatten()
+        .map(|p| p.residual)
+        .filter(|d| d.abs() < RESIDUAL_WINDOW)
+        .collect();
     if near.is_empty() {
         return TOLERANCE_RANGE.1;
     }
@@ -238,21 +251,6 @@ fn surface_tolerance(observed: &[Vec<ObservedPoint>], surface: &dyn RoomSurface)
 fn median_of(values: &mut [f32]) -> f32 {
     let middle = values.len() / 2;
     *values.select_nth_unstable_by(middle, f32::total_cmp).1
-}
-
-/// The points farther than `tolerance` from the room's surface, in its free space.
-fn free_space_points(
-    points: &[ObservedPoint],
-    surface: &dyn RoomSurface,
-    tolerance: f64,
-) -> Vec<ObservedPoint> {
-    let world: Vec<DVec3> = points.iter().map(|p| p.world).collect();
-    points
-        .iter()
-        .zip(distances(surface, &world))
-        .filter(|(_, d)| *d as f64 > tolerance)
-        .map(|(p, _)| *p)
-        .collect()
 }
 
 fn voxel_key(p: DVec3, voxel: f64) -> [i32; 3] {

@@ -256,6 +256,38 @@ fn capture_with_lighting(dir: &Path, frames: Vec<Frame>, lighting: &Lighting) ->
     }
 }
 
+/// The light a capture is taken under, and the rig that renders it.
+struct CaptureLight {
+    lighting: Lighting,
+    rig: LightRig,
+}
+
+impl CaptureLight {
+    /// The empty room's light: the background capture's, and that of objects captured in the room.
+    fn room(ctx: &Context) -> Self {
+        let lighting = background_lighting(ctx.shell.size, &ctx.hdris[0].name);
+        let rig = LightRig::new(
+            &lighting,
+            Some(ctx.hdris[0].environment),
+            Some(ctx.shell.bounce),
+            ROOM_AO_DISTANCE,
+        );
+        CaptureLight { lighting, rig }
+    }
+
+    /// The light of an object captured alone: no room to bounce off or occlude.
+    fn isolated(ctx: &Context) -> Self {
+        let lighting = object_lighting(&ctx.hdris[0].name);
+        let rig = LightRig::new(
+            &lighting,
+            Some(ctx.hdris[0].environment),
+            None,
+            f32::INFINITY,
+        );
+        CaptureLight { lighting, rig }
+    }
+}
+
 /// The background capture: the empty room from inside, masks all 0.
 fn write_background(
     ctx: &mut Context,
@@ -263,13 +295,7 @@ fn write_background(
 ) -> Result<usize, SynthError> {
     let cfg = &ctx.preset.background;
     let dir = ctx.out.join("captures/background");
-    let lighting = background_lighting(ctx.shell.size, &ctx.hdris[0].name);
-    let rig = LightRig::new(
-        &lighting,
-        Some(ctx.hdris[0].environment),
-        Some(ctx.shell.bounce),
-        ROOM_AO_DISTANCE,
-    );
+    let light = CaptureLight::room(ctx);
     let scene = TracedScene::new(vec![Instance::new(
         ctx.shell.model.clone(),
         Pose::IDENTITY,
@@ -291,7 +317,14 @@ fn write_background(
             camera: Camera::Pinhole(camera),
             camera_to_world: pose,
         };
-        let rendered = render(&scene, &rig, &view, cfg.quality, ctx.seed, 1 + i as u64);
+        let rendered = render(
+            &scene,
+            &light.rig,
+            &view,
+            cfg.quality,
+            ctx.seed,
+            1 + i as u64,
+        );
         ctx.rays += rendered.rays;
         frames.push(write_view(&dir, i, &rendered, camera, pose, false)?);
         progress(StageProgress {
@@ -301,7 +334,7 @@ fn write_background(
         });
     }
     let n = frames.len();
-    write_capture(&dir, &capture_with_lighting(&dir, frames, &lighting))?;
+    write_capture(&dir, &capture_with_lighting(&dir, frames, &light.lighting))?;
     Ok(n)
 }
 
@@ -339,8 +372,7 @@ fn object_capture_camera(cfg: &ObjectCaptureConfig) -> Pinhole {
 /// What a model's capture is rendered from.
 struct CaptureShoot<'a> {
     scene: TracedScene,
-    rig: &'a LightRig,
-    lighting: &'a Lighting,
+    light: &'a CaptureLight,
     camera: Pinhole,
     /// Alpha kept (an object alone) or dropped (an object in the room).
     rgba: bool,
@@ -366,7 +398,14 @@ fn shoot_capture(
             camera_to_world: pose,
         };
         let stream = ((m as u64 + 1) << 20) + i as u64;
-        let rendered = render(&shoot.scene, shoot.rig, &view, quality, ctx.seed, stream);
+        let rendered = render(
+            &shoot.scene,
+            &shoot.light.rig,
+            &view,
+            quality,
+            ctx.seed,
+            stream,
+        );
         ctx.rays += rendered.rays;
         frames.push(write_view(
             &dir,
@@ -382,7 +421,10 @@ fn shoot_capture(
             total,
         });
     }
-    write_capture(&dir, &capture_with_lighting(&dir, frames, shoot.lighting))?;
+    write_capture(
+        &dir,
+        &capture_with_lighting(&dir, frames, &shoot.light.lighting),
+    )?;
     Ok(total)
 }
 
@@ -395,13 +437,7 @@ fn write_in_room_captures(
 ) -> Result<usize, SynthError> {
     let cfg = ctx.preset.object_capture.clone();
     let size = ctx.shell.size;
-    let lighting = background_lighting(size, &ctx.hdris[0].name);
-    let rig = LightRig::new(
-        &lighting,
-        Some(ctx.hdris[0].environment),
-        Some(ctx.shell.bounce),
-        ROOM_AO_DISTANCE,
-    );
+    let light = CaptureLight::room(ctx);
     // Eyes stay this far inside the walls, floor and ceiling.
     let margin = 0.2;
     let mut total = 0;
@@ -415,8 +451,7 @@ fn write_in_room_captures(
                 Instance::new(ctx.shell.model.clone(), Pose::IDENTITY, 0),
                 Instance::new(f.model.clone(), placed, capture_id(ctx, m)),
             ]),
-            rig: &rig,
-            lighting: &lighting,
+            light: &light,
             camera: object_capture_camera(&cfg),
             rgba: false,
         };
@@ -441,13 +476,7 @@ fn write_isolated_captures(
     progress: &mut dyn FnMut(StageProgress),
 ) -> Result<usize, SynthError> {
     let cfg = ctx.preset.object_capture.clone();
-    let lighting = object_lighting(&ctx.hdris[0].name);
-    let rig = LightRig::new(
-        &lighting,
-        Some(ctx.hdris[0].environment),
-        None,
-        f32::INFINITY,
-    );
+    let light = CaptureLight::isolated(ctx);
     let mut total = 0;
     for m in 0..ctx.models.len() {
         let f = &ctx.models[m];
@@ -457,8 +486,7 @@ fn write_isolated_captures(
                 Pose::IDENTITY,
                 capture_id(ctx, m),
             )]),
-            rig: &rig,
-            lighting: &lighting,
+            light: &light,
             camera: object_capture_camera(&cfg),
             rgba: true,
         };

@@ -38,20 +38,22 @@ impl RoomSurface for BackgroundSurface {
     }
 }
 
-/// Loads the background model of the model folder `models`.
+/// Loads the background model of the model folder `models` (and no other).
 pub fn load_background_surface(models: &Path) -> anyhow::Result<BackgroundSurface> {
-    let loaded = crate::scene::load_models(models)?;
-    let index = loaded
-        .manifest
+    let context = || format!("reading the background model in {}", models.display());
+    let manifest = crate::train::read_manifest(models).with_context(context)?;
+    let entry = manifest
         .models
         .iter()
-        .position(|m| m.kind == neuroom_train::ModelKind::Background)
-        .with_context(|| format!("{}: has no background model (train it first: neuroom train ROOM --only background)", models.join("manifest.json").display()))?;
-    let field = loaded
-        .fields
-        .into_iter()
-        .nth(index)
-        .expect("one field per entry");
+        .find(|m| m.kind == neuroom_train::ModelKind::Background)
+        .with_context(|| {
+            format!(
+                "{}: has no background model (train it first: neuroom train ROOM --only background)",
+                models.join("manifest.json").display()
+            )
+        })?;
+    let (field, _, _) =
+        neuroom_field::checkpoint::load(&models.join(&entry.path)).with_context(context)?;
     Ok(BackgroundSurface { field })
 }
 
@@ -106,18 +108,16 @@ fn depth_frames(capture: &Capture) -> anyhow::Result<Vec<DepthFrame>> {
         .collect()
 }
 
-/// The automatic masks of object `name`'s capture (its poses in the room's world), cut by the
-/// background model of `models`, inside `bounds` or the box they propose.
-pub fn capture_masks(
-    room: &Room,
+/// The automatic masks of `capture` (its poses in the room's world), cut by the background model
+/// of `models`, inside `bounds` or the box they propose.
+fn capture_masks(
+    capture: &Capture,
     models: &Path,
-    name: &str,
     bounds: Option<WorldBox>,
 ) -> anyhow::Result<ObjectMasks> {
-    let (_, capture) = object_capture(room, name)?;
     let surface = load_background_surface(models)?;
     object_masks(
-        &depth_frames(&capture)?,
+        &depth_frames(capture)?,
         &surface,
         bounds,
         &MaskOptions::default(),
@@ -140,16 +140,18 @@ pub struct WrittenMasks {
     pub tolerance_mm: f64,
 }
 
-/// Makes object `name`'s masks ([`capture_masks`]) and writes them into its capture (`masks/`,
-/// the object's id on it; transforms.json names them). Frames' existing masks are replaced.
+/// Makes the automatic masks of object `name`'s capture (its poses in the room's world), cut by the
+/// background model of `models` inside `bounds` or the box they propose, and writes them into the
+/// capture (`masks/`, the object's id on it; transforms.json names them). Frames' existing masks
+/// are replaced.
 pub fn write_capture_masks(
     room: &Room,
     models: &Path,
     name: &str,
     bounds: Option<WorldBox>,
 ) -> anyhow::Result<WrittenMasks> {
-    let found = capture_masks(room, models, name, bounds)?;
     let (object, mut capture) = object_capture(room, name)?;
+    let found = capture_masks(&capture, models, bounds)?;
     let mut on_object = 0usize;
     let mut pixels = 0usize;
     for (i, (frame, mask)) in capture.frames.iter_mut().zip(&found.masks).enumerate() {
