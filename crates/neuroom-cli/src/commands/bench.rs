@@ -100,6 +100,10 @@ struct LocateArgs {
     /// its n × n sub-pixels the object covers, with their mean colour).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4))]
     supersample: Option<u32>,
+    /// Width of the panorama the object search works on (by default 512; the height is half of it):
+    /// wider sees small, far objects in more pixels and costs time in proportion to the pixels.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(128..=4096))]
+    object_width: Option<u32>,
     #[command(flatten)]
     search: super::search_args::SearchArgs,
     /// Also run the holistic fit from the initial poses (as `neuroom locate` does) and score its poses
@@ -358,6 +362,9 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
     });
     if let Some(n) = a.supersample {
         config.search.supersample = n as usize;
+    }
+    if let Some(w) = a.object_width {
+        config.object_width = w as usize;
     }
     let fit = neuroom::fit::FitConfig {
         preview_height: None,
