@@ -374,7 +374,7 @@ pub fn load_model_data(
         .bounds
         .filter(|_| spec.kind == ModelKind::Object)
         .map(|b| {
-            let fc = field_config(spec.kind, b, &config.object, 1, 1, 0);
+            let fc = field_config(spec.kind, b, &config.object, config.object_start, 1, 1, 0);
             Aabb {
                 min: fc.bounds_min,
                 max: fc.bounds_max,

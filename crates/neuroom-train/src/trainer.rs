@@ -12,7 +12,7 @@
 //! the generator, Adam's moments and the fitted step count, and resuming continues bit for bit.
 
 use crate::augment::Augmentation;
-use crate::config::{BudgetClock, ModelBudget, TrainConfig};
+use crate::config::{BudgetClock, ModelBudget, ObjectStart, START_INSET, TrainConfig};
 use crate::dataset::{Aabb, Dataset};
 use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sample_zone, sdf_loss};
 use crate::progress::Progress;
@@ -97,19 +97,25 @@ pub struct LightCodes {
     pub capture: usize,
 }
 
-/// The field configuration of a model of `kind` over `bounds` (model frame: the object's box, or the room).
+/// The field configuration of a model of `kind` over `bounds` (model frame: the object's box, or the
+/// room); an object's SDF starts from `start`.
 pub fn field_config(
     kind: ModelKind,
     bounds: Aabb,
     budget: &ModelBudget,
+    start: ObjectStart,
     lights: usize,
     appearance: usize,
     seed: u64,
 ) -> NeusConfig {
     let mut c = match kind {
         ModelKind::Object => {
-            let half = std::array::from_fn(|a| 0.5 * (bounds.max[a] - bounds.min[a]));
+            let half: [f32; 3] = std::array::from_fn(|a| 0.5 * (bounds.max[a] - bounds.min[a]));
             let mut c = NeusConfig::object(half);
+            c.init.box_half_extent = match start {
+                ObjectStart::Box => Some(half.map(|h| START_INSET * h)),
+                ObjectStart::Sphere => None,
+            };
             let centre: [f32; 3] = std::array::from_fn(|a| 0.5 * (bounds.max[a] + bounds.min[a]));
             for (a, m) in centre.iter().enumerate() {
                 c.bounds_min[a] += m;
@@ -193,6 +199,7 @@ impl<'a> Trainer<'a> {
             kind,
             bounds,
             &budget,
+            config.object_start,
             lights.names.len(),
             appearance,
             config.seed,
