@@ -21,7 +21,7 @@ pub mod room;
 pub mod symmetry;
 pub mod trainer;
 
-pub use config::{BudgetClock, ModelBudget, ObjectStart, START_INSET, TrainConfig};
+pub use config::{BudgetClock, ModelBudget, ObjectStart, TrainConfig};
 pub use room::{
     MANIFEST_FILE, Manifest, ModelEntry, RoomModels, TrainError, TrainSummary, load_room_models,
     read_manifest, train_room,

@@ -112,10 +112,14 @@ pub fn field_config(
         ModelKind::Object => {
             let half: [f32; 3] = std::array::from_fn(|a| 0.5 * (bounds.max[a] - bounds.min[a]));
             let mut c = NeusConfig::object(half);
-            c.init.box_half_extent = match start {
-                ObjectStart::Box => Some(half.map(|h| START_INSET * h)),
-                ObjectStart::Sphere => None,
-            };
+            match start {
+                ObjectStart::Box => c.init.box_half_extent = Some(half.map(|h| START_INSET * h)),
+                ObjectStart::Sphere => {
+                    c.init.radius =
+                        START_INSET * half.iter().copied().fold(f32::INFINITY, f32::min);
+                    c.init.box_half_extent = None;
+                }
+            }
             let centre: [f32; 3] = std::array::from_fn(|a| 0.5 * (bounds.max[a] + bounds.min[a]));
             for (a, m) in centre.iter().enumerate() {
                 c.bounds_min[a] += m;
