@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cell_smooth::{CellSmoother, CellSums};
 use crate::shading::{NormalGain, fit_room_shading, panorama_normals};
+use crate::sphere_image::CLIPPED;
 
 /// The query's light relative to the captures' at every pixel: a gain per colour channel that depends
 /// on the surface's normal ([`crate::shading`]: the light's colour, level and direction, as the whole
@@ -110,10 +111,6 @@ impl Default for LocalLightConfig {
 /// large object in front of it), the light of a wider neighbourhood is taken.
 const FALLBACK_SCALE: f32 = 4.0;
 const FALLBACK_WEIGHT: f32 = 0.05;
-
-/// Pixels whose every channel is at least this bright (sRGB) are clipped: light sources and burnt-out
-/// highlights, whose ratio is not the light's.
-const CLIPPED: f32 = 0.97;
 
 /// The query's light relative to the empty room's, per pixel and channel (linear gains), and what it
 /// was estimated from, so that it can be estimated again without some of its pixels
