@@ -99,7 +99,8 @@ impl SphereImage {
     }
 
     /// The image at `width × height` by box averaging over the seen pixels; a pixel is seen when at
-    /// least half of what it averages was.
+    /// least half of what it averages was. A pixel that averages nothing (the image enlarged) takes
+    /// its nearest source pixel, seen or not, as [`downsample_rgb`] does.
     pub fn downsample(&self, width: usize, height: usize) -> SphereImage {
         let Some(seen) = &self.seen else {
             return Self::panorama(downsample_rgb(&self.rgb, width, height));
@@ -113,13 +114,23 @@ impl SphereImage {
                 add_colour(s, self.rgb.data[source]);
             }
         });
-        let data = sum
-            .iter()
-            .map(|s| std::array::from_fn(|c| s[c] / s[3].max(1.0)))
+        let nearest = |i: usize| {
+            let (u, v) = (i % width, i / width);
+            let su = ((u as f64 + 0.5) * sw as f64 / width as f64) as usize;
+            let sv = ((v as f64 + 0.5) * sh as f64 / height as f64) as usize;
+            sv.min(sh - 1) * sw + su.min(sw - 1)
+        };
+        let data = (sum.iter().enumerate())
+            .map(|(i, s)| match s[4] > 0.0 {
+                true => std::array::from_fn(|c| s[c] / s[3].max(1.0)),
+                false => self.rgb.data[nearest(i)],
+            })
             .collect();
-        let small_seen = sum
-            .iter()
-            .map(|s| s[4] > 0.0 && 2.0 * s[3] >= s[4])
+        let small_seen = (sum.iter().enumerate())
+            .map(|(i, s)| match s[4] > 0.0 {
+                true => 2.0 * s[3] >= s[4],
+                false => seen[nearest(i)],
+            })
             .collect();
         SphereImage {
             rgb: RgbImage {
@@ -293,6 +304,22 @@ mod tests {
         let photo = SphereImage::from_photo_at(&ramp_photo(80, 60), &camera, 240);
         let kept = photo.without_clipped();
         assert!((0..w * h).all(|i| kept.sees(i) == photo.sees(i)));
+    }
+
+    #[test]
+    fn a_masked_image_enlarged_keeps_what_was_seen() {
+        let (w, h) = (64, 32);
+        let mut image = SphereImage::panorama(ramp_photo(w, h));
+        // The left half seen, the right half not.
+        image.seen = Some((0..w * h).map(|i| i % w < w / 2).collect());
+        let large = image.downsample(4 * w, 4 * h);
+        for i in 0..16 * w * h {
+            let (u, v) = (i % (4 * w), i / (4 * w));
+            assert_eq!(large.sees(i), u < 2 * w, "pixel ({u}, {v})");
+            if large.sees(i) {
+                assert_eq!(large.rgb.data[i], image.rgb.data[(v / 4) * w + u / 4]);
+            }
+        }
     }
 
     #[test]
