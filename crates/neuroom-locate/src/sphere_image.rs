@@ -6,7 +6,7 @@
 use glam::{DMat3, DVec2, DVec3};
 use neuroom_core::camera::{CameraModel, Pinhole};
 use neuroom_core::image::RgbImage;
-use neuroom_panorama::plane::{Plane, add_colour, downsample_rgb, for_each_target};
+use neuroom_panorama::plane::{Plane, add_colour, downsample_rgb, for_each_target, nearest_source};
 use neuroom_panorama::sphere::direction;
 
 use crate::features::FeatureMap;
@@ -114,24 +114,19 @@ impl SphereImage {
                 add_colour(s, self.rgb.data[source]);
             }
         });
-        let nearest = |i: usize| {
-            let (u, v) = (i % width, i / width);
-            let su = ((u as f64 + 0.5) * sw as f64 / width as f64) as usize;
-            let sv = ((v as f64 + 0.5) * sh as f64 / height as f64) as usize;
-            sv.min(sh - 1) * sw + su.min(sw - 1)
-        };
-        let data = (sum.iter().enumerate())
-            .map(|(i, s)| match s[4] > 0.0 {
-                true => std::array::from_fn(|c| s[c] / s[3].max(1.0)),
-                false => self.rgb.data[nearest(i)],
+        let (data, small_seen) = (sum.iter().enumerate())
+            .map(|(i, s)| {
+                if s[4] > 0.0 {
+                    (
+                        std::array::from_fn(|c| s[c] / s[3].max(1.0)),
+                        2.0 * s[3] >= s[4],
+                    )
+                } else {
+                    let n = nearest_source(sw, sh, width, height, i);
+                    (self.rgb.data[n], seen[n])
+                }
             })
-            .collect();
-        let small_seen = (sum.iter().enumerate())
-            .map(|(i, s)| match s[4] > 0.0 {
-                true => 2.0 * s[3] >= s[4],
-                false => seen[nearest(i)],
-            })
-            .collect();
+            .unzip();
         SphereImage {
             rgb: RgbImage {
                 width: width as u32,

@@ -138,6 +138,16 @@ pub fn for_each_target(
     }
 }
 
+/// The pixel of a `sw × sh` image (row-major index) nearest the centre of pixel `target` of a
+/// `width × height` image: what a target pixel that [`for_each_target`] never visits (the image
+/// enlarged) takes.
+pub fn nearest_source(sw: usize, sh: usize, width: usize, height: usize, target: usize) -> usize {
+    let (u, v) = (target % width, target / width);
+    let su = ((u as f64 + 0.5) * sw as f64 / width as f64) as usize;
+    let sv = ((v as f64 + 0.5) * sh as f64 / height as f64) as usize;
+    sv.min(sh - 1) * sw + su.min(sw - 1)
+}
+
 /// Adds colour `c` to a running sum `[r, g, b, count]` (the first four slots of `sum`).
 pub fn add_colour(sum: &mut [f32], c: [f32; 3]) {
     sum[0] += c[0];
@@ -161,10 +171,7 @@ pub fn downsample_rgb(image: &RgbImage, width: usize, height: usize) -> RgbImage
             if s[3] > 0.0 {
                 [s[0] / s[3], s[1] / s[3], s[2] / s[3]]
             } else {
-                let (u, v) = (i % width, i / width);
-                let su = ((u as f64 + 0.5) * sw as f64 / width as f64) as usize;
-                let sv = ((v as f64 + 0.5) * sh as f64 / height as f64) as usize;
-                image.data[sv.min(sh - 1) * sw + su.min(sw - 1)]
+                image.data[nearest_source(sw, sh, width, height, i)]
             }
         })
         .collect();
