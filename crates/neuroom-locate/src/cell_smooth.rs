@@ -235,10 +235,7 @@ impl CellSmoother {
         let mut cells: Vec<usize> = corners.iter().flatten().map(|(c, _)| *c).collect();
         cells.sort_unstable();
         cells.dedup();
-        let means: Vec<[f32; 3]> = cells
-            .iter()
-            .map(|&o| self.mean_without(sums, &removed, o))
-            .collect();
+        let means = self.means_without(sums, &removed, &cells);
         corners
             .iter()
             .map(|cs| {
@@ -254,27 +251,79 @@ impl CellSmoother {
             .collect()
     }
 
-    /// Cell `o`'s mean once the mass `removed` (per cell) is taken out of its sums.
-    fn mean_without(&self, sums: &CellSums, removed: &[(usize, [f32; 4])], o: usize) -> [f32; 3] {
-        let (ou, ov) = (o % self.cols, o / self.cols);
-        let mut near = sums.near[o].map(f64::from);
-        let mut far = sums.far[o].map(f64::from);
+    /// The means of cells `cells` once the mass `removed` (per cell, sorted by cell) is taken out of
+    /// the sums. The kernels are separable: the removed mass is blurred along its rows to the columns
+    /// of `cells` first, then across rows to each cell, so the cost grows with the cells removed times
+    /// the columns asked for, not with the product of the two sets.
+    fn means_without(
+        &self,
+        sums: &CellSums,
+        removed: &[(usize, [f32; 4])],
+        cells: &[usize],
+    ) -> Vec<[f32; 3]> {
+        let mut columns: Vec<usize> = cells.iter().map(|o| o % self.cols).collect();
+        columns.sort_unstable();
+        columns.dedup();
+        let rows = self.removed_rows(removed, &columns);
+        cells
+            .iter()
+            .map(|&o| {
+                let (ou, ov) = (o % self.cols, o / self.cols);
+                let j = columns.binary_search(&ou).expect("listed above");
+                let mut near = sums.near[o].map(f64::from);
+                let mut far = sums.far[o].map(f64::from);
+                for row in &rows {
+                    let rn = f64::from(self.near.row_weight(ov, row.row, self.rows));
+                    let rf = f64::from(self.far.row_weight(ov, row.row, self.rows));
+                    for k in 0..4 {
+                        near[k] -= rn * row.near[j][k];
+                        far[k] -= rf * row.far[j][k];
+                    }
+                }
+                let near = near.map(|x| x as f32);
+                let far = far.map(|x| x as f32);
+                // What is left may be rounding alone where the pixels were all there was.
+                let before = sums.near[o][3] + self.far_weight * sums.far[o][3];
+                self.mean(&near, &far, LEAST_LEFT * before)
+            })
+            .collect()
+    }
+
+    /// Per grid row holding removed mass, that mass blurred along the row (columns wrap around) to
+    /// each of `columns`, under both kernels.
+    fn removed_rows(&self, removed: &[(usize, [f32; 4])], columns: &[usize]) -> Vec<RemovedRow> {
+        let mut rows: Vec<RemovedRow> = Vec::new();
         for (c, m) in removed {
             let (cu, cv) = (c % self.cols, c / self.cols);
-            let d = (cu + self.cols - ou) % self.cols;
-            let gn = self.near.by_column[d] * self.near.row_weight(ov, cv, self.rows);
-            let gf = self.far.by_column[d] * self.far.row_weight(ov, cv, self.rows);
-            for k in 0..4 {
-                near[k] -= f64::from(gn * m[k]);
-                far[k] -= f64::from(gf * m[k]);
+            if rows.last().is_none_or(|r| r.row != cv) {
+                rows.push(RemovedRow {
+                    row: cv,
+                    near: vec![[0.0; 4]; columns.len()],
+                    far: vec![[0.0; 4]; columns.len()],
+                });
+            }
+            let row = rows.last_mut().expect("pushed above");
+            for (j, &ou) in columns.iter().enumerate() {
+                let d = (cu + self.cols - ou) % self.cols;
+                let (gn, gf) = (self.near.by_column[d], self.far.by_column[d]);
+                for (k, mass) in m.iter().enumerate() {
+                    row.near[j][k] += f64::from(gn * mass);
+                    row.far[j][k] += f64::from(gf * mass);
+                }
             }
         }
-        let near = near.map(|x| x as f32);
-        let far = far.map(|x| x as f32);
-        // What is left may be rounding alone where the pixels were all there was.
-        let before = sums.near[o][3] + self.far_weight * sums.far[o][3];
-        self.mean(&near, &far, LEAST_LEFT * before)
+        rows
     }
+}
+
+/// Removed mass of one grid row, blurred along it to the columns asked for.
+struct RemovedRow {
+    /// The grid row.
+    row: usize,
+    /// Per column asked for, the mass under the narrow kernel's column weights.
+    near: Vec<[f64; 4]>,
+    /// The same under the broad kernel's.
+    far: Vec<[f64; 4]>,
 }
 
 /// Share of a cell's weight that must remain once pixels are left out for its mean to be taken:
