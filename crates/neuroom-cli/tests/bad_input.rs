@@ -210,6 +210,7 @@ fn fit_names_a_bad_panorama_and_a_bad_initial_arrangement() {
             tiny_room().join("captures/box/images/0.png"),
             "twice as wide as high",
         ),
+        (tiny_room().join("panoramas/p0.depth.png"), "depth map"),
     ] {
         let out = neuroom(&[
             Path::new("fit"),
@@ -250,6 +251,9 @@ fn locate_names_a_bad_panorama_and_a_photo_whose_intrinsics_do_not_fit() {
     };
     // Without intrinsics an image must be a panorama.
     assert_rejects(&locate(&photo, &[]), &photo, "--intrinsics");
+    // A panorama's depth map (16-bit, one channel, 2:1) is not its colour.
+    let depth = tiny_room().join("panoramas/p0.depth.png");
+    assert_rejects(&locate(&depth, &[]), &depth, "depth map");
     let bad = corpus("intrinsics_missing_fl_y.json");
     let out = locate(&photo, &[Path::new("--intrinsics"), &bad]);
     assert_rejects(&out, &bad, "fl_y");

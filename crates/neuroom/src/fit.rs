@@ -5,7 +5,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use glam::Vec3;
-use neuroom_core::formats::{self, Arrangement, Room, read_arrangement, read_rgb, read_room};
+use neuroom_core::formats::{
+    self, Arrangement, Room, read_arrangement, read_colour_photo, read_room,
+};
 use neuroom_core::image::RgbImage;
 use neuroom_field::NeusField;
 pub use neuroom_fit::{FitConfig, IterationLog};
@@ -55,7 +57,7 @@ pub fn fit_panorama(
     progress: &mut dyn FnMut(&IterationLog),
 ) -> anyhow::Result<(FitOutputs, FitReport)> {
     let panorama = input.panorama;
-    let image = read_rgb(panorama)?.image;
+    let image = read_colour_photo(panorama)?.image;
     anyhow::ensure!(
         image.width == 2 * image.height,
         "{}: a panorama must be twice as wide as high (equirectangular), this one is {}×{}",

@@ -879,7 +879,7 @@ pub fn write_search_view(
 /// JSON file of `transforms.json`'s camera keys, [`formats::read_intrinsics_file`]) a photo of that
 /// size.
 pub fn read_query(image: &Path, intrinsics: Option<&Path>) -> anyhow::Result<QueryImage> {
-    let rgb = read_rgb(image)?.image;
+    let rgb = formats::read_colour_photo(image)?.image;
     let Some(intrinsics) = intrinsics else {
         anyhow::ensure!(
             rgb.width == 2 * rgb.height,

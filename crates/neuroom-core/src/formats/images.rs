@@ -83,6 +83,23 @@ pub fn decode_rgb(path: &Path, bytes: &[u8]) -> FormatResult<Decoded<RgbImage>> 
     )
 }
 
+/// Reads a photograph or panorama of a scene as [`read_rgb`] does, refusing a 16-bit single-channel
+/// PNG: in this format that is a depth map or an instance mask, never a camera's picture, and read
+/// as grey colours it would be located silently.
+pub fn read_colour_photo(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbImage>> {
+    let path = path.as_ref();
+    let decoded = read_rgb(path)?;
+    let has = |c: Conversion| decoded.conversions.contains(&c);
+    if has(Conversion::GrayToRgb) && has(Conversion::SixteenBit) {
+        return Err(FormatError::file(
+            path,
+            "a 16-bit single-channel image is a depth map or an instance mask, not a colour \
+             picture: give the colour file (.jpg or .png) beside it",
+        ));
+    }
+    Ok(decoded)
+}
+
 /// Reads a colour image as sRGB RGBA in [0, 1]; files without alpha get alpha 1.
 pub fn read_rgba(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbaImage>> {
     let path = path.as_ref();
