@@ -17,6 +17,7 @@ pub mod pose;
 pub mod ray;
 pub mod rotation6d;
 pub mod sh;
+pub mod stats;
 pub mod surface;
 pub mod winding;
 

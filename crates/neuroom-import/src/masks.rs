@@ -15,6 +15,7 @@ use std::collections::{HashMap, HashSet};
 use glam::{DVec2, DVec3, Vec3};
 use neuroom_core::camera::{CameraModel, Pinhole};
 use neuroom_core::pose::Pose;
+use neuroom_core::stats::upper_median_by;
 
 /// The trained empty room's surface as a signed distance: positive in the room's free space.
 pub trait RoomSurface: Sync {
@@ -249,8 +250,7 @@ fn surface_tolerance(observed: &[Vec<ObservedPoint>]) -> f64 {
 }
 
 fn median_of(values: &mut [f32]) -> f32 {
-    let middle = values.len() / 2;
-    *values.select_nth_unstable_by(middle, f32::total_cmp).1
+    upper_median_by(values, f32::total_cmp).unwrap_or(0.0)
 }
 
 fn voxel_key(p: DVec3, voxel: f64) -> [i32; 3] {

@@ -10,6 +10,7 @@ use glam::{DVec2, Vec3};
 use neuroom_core::camera::{CameraModel, Equirect};
 use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
 use neuroom_core::sh::sh9;
+use neuroom_core::stats::upper_median_by;
 
 /// Number of spherical-harmonic coefficients of the gain (order 2).
 const COEFFS: usize = 9;
@@ -267,11 +268,7 @@ fn global_gains(query: &RgbImage, empty: &RgbImage, normals: &[Option<Vec3>]) ->
 }
 
 fn median(mut v: Vec<f32>) -> Option<f32> {
-    if v.is_empty() {
-        return None;
-    }
-    let mid = v.len() / 2;
-    Some(*v.select_nth_unstable_by(mid, f32::total_cmp).1)
+    upper_median_by(&mut v, f32::total_cmp)
 }
 
 /// Median over pixels with a normal of the mean absolute sRGB difference.

@@ -10,6 +10,7 @@ use crate::renderer::Renderer;
 use crate::scene::{Background, InstanceCodes, Model, Scene, SceneObject, Tone};
 use crate::volume::RayOutput;
 use glam::{DVec3, Vec3};
+use neuroom_core::stats::upper_median_by;
 use neuroom_core::{Pose, Ray};
 use neuroom_field::rng::SplitMix;
 use neuroom_field::{NeusConfig, NeusField, Params};
@@ -182,8 +183,7 @@ fn bench_row(
 
 /// The median (0 for no values).
 fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(0.0)
+    upper_median_by(&mut v, f64::total_cmp).unwrap_or(0.0)
 }
 
 /// The room and `k` objects on a ring around the camera, each its own default NeuS model.

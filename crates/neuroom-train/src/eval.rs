@@ -13,6 +13,7 @@ use crate::augment::Augmentation;
 use crate::dataset::{Aabb, FrameView, PixelClass};
 use glam::Vec3;
 use neuroom_core::mesh::TriMesh;
+use neuroom_core::stats::upper_median_by;
 use neuroom_core::surface::{Grid, extract_surface};
 use neuroom_field::{CodeSet, Codes, NeusField, Outputs, Tape};
 use neuroom_render::sampling::uniform;
@@ -288,12 +289,8 @@ pub fn noise_psnr_ceiling(views: &[FrameView]) -> Option<f64> {
 }
 
 /// Median of a list (0 when empty).
-pub fn median(mut v: Vec<f32>) -> f32 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f32::total_cmp);
-    v[v.len() / 2]
+fn median(mut v: Vec<f32>) -> f32 {
+    upper_median_by(&mut v, f32::total_cmp).unwrap_or(0.0)
 }
 
 /// The view's colours re-lit by augmentation map `k` (surface pixels; others unchanged).
