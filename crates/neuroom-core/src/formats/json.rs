@@ -326,6 +326,27 @@ mod tests {
         JsonObject::root(Path::new("x.json"), v).unwrap()
     }
 
+    /// Every f64 written comes back bit for bit (scores compared across the CLI and the Python
+    /// API depend on it); serde_json's default float parser may be one ulp off.
+    #[test]
+    fn numbers_round_trip_exactly() {
+        let values: [f64; 4] = [
+            138.070_285_841_054_21,
+            0.1 + 0.2,
+            1e-300,
+            6.566_032_819_532_805,
+        ];
+        let text = serde_json::to_string(&json!(values)).unwrap();
+        let back = parse_json(Path::new("x.json"), text.as_bytes()).unwrap();
+        for (v, b) in values.iter().copied().zip(back.as_array().unwrap()) {
+            assert_eq!(
+                v.to_bits(),
+                b.as_f64().unwrap().to_bits(),
+                "{v} read as {b}"
+            );
+        }
+    }
+
     #[test]
     fn nested_errors_name_the_dotted_field() {
         let v = json!({"frames": [{"fl_x": 3}, {"fl_x": -2}]});
