@@ -66,8 +66,9 @@ pub struct LocalizeConfig {
     /// Rendering of the keyframes.
     pub render: RenderConfig,
     /// When the best finalist's refined correlation is below [`CameraEvidence::strong`], this many
-    /// more finalists (the next best after the first rendered round) are refined to the end too and the
-    /// best correlation wins: a light the captures never saw can rank a wrong place first.
+    /// more finalists (the next best after the first rendered round) are refined too and the best
+    /// correlation wins: a light the captures never saw can rank a wrong place first. Each goes
+    /// through every round but the last, and through the last only when it leads there (`finish`).
     #[serde(default = "default_fallbacks")]
     pub fallbacks: usize,
     /// How the final correlation and the best other place become the camera's confidence.
@@ -86,8 +87,8 @@ pub struct LocalizeConfig {
 /// with the empty room: under a light the captures never saw, the true place can rank below the
 /// heading search's first candidates, and the rendered rounds then refine only wrong places (on the
 /// validation suite the true cameras of such panoramas correlate 0.27–0.50 where the ones found
-/// correlate below 0.2). Every finalist of the wider search is refined to the end, unless one reaches
-/// the strong evidence first. It costs time only where the camera would otherwise be lost.
+/// correlate below 0.2). Every finalist of the wider search is refined as a fallback is, unless one
+/// reaches the strong evidence first. It costs time only where the camera would otherwise be lost.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LostSearch {
     /// Candidates of each heading search ([`LocalizeConfig::candidates`]).
@@ -227,7 +228,8 @@ pub struct CameraEstimate {
     /// place ([`CameraEvidence::other_place`] away) in that round, if any: how distinct it is.
     #[serde(default)]
     pub first_round: [f64; 2],
-    /// Finalists refined to the end (1, or more when the best one's evidence was weak).
+    /// Finalists refined past the first round (1, or more when the best one's evidence was weak;
+    /// [`LocalizeConfig::fallbacks`]).
     #[serde(default)]
     pub tried: usize,
     /// The tilt (degrees) of the levelling the kept camera was located under: the one found in the
@@ -379,10 +381,9 @@ fn localize_as<F: Field>(
     let t2 = Instant::now();
     let six_dof = six_dof(config);
     let (first, rest) = config.fine_widths.split_first().unzip();
-    let rest = rest.unwrap_or(&[]);
-    let (upright_rounds, last) = match (to_level, rest.split_last()) {
-        (None, Some((last, before))) => (before, std::slice::from_ref(last)),
-        _ => (&[][..], rest),
+    let (last, middle) = match rest.and_then(<[usize]>::split_last) {
+        Some((last, middle)) => (std::slice::from_ref(last), middle),
+        None => (&[][..], &[][..]),
     };
     let early = if to_level.is_some() { &six_dof } else { config };
     // A refinement that leaves the room (a photo of a bare wall can slide off) keeps its start.
@@ -397,10 +398,12 @@ fn localize_as<F: Field>(
         })
         .collect();
     rounds.sort_by(|a, b| b.score.total_cmp(&a.score));
-    let finished = finish(&rounds, config, |start| {
-        let upright = within(refine(scene, panorama, start, upright_rounds, early), start);
-        within(refine(scene, panorama, &upright, last, &six_dof), &upright)
-    });
+    let finished = finish(
+        &rounds,
+        config,
+        |start| within(refine(scene, panorama, start, middle, early), start),
+        |halfway| within(refine(scene, panorama, halfway, last, &six_dof), halfway),
+    );
     let t3 = Instant::now();
     let mut estimate = judged(&finished, &rounds, &config.evidence);
     estimate.search_score = search_score;
@@ -510,34 +513,53 @@ fn rotation_angle(r: &DMat3) -> f64 {
         .acos()
 }
 
-/// The best of the finalists refined to the end, and how many were.
+/// The best of the finalists refined to the end, and how many were refined past the first round.
 struct Finished {
     best: Alignment,
     /// Its correlation after the first rendered round.
     first_round: f64,
+    /// Its correlation before the last round.
+    halfway: f64,
     tried: usize,
 }
 
-/// Refines `rounds` (best first) to the end with `refine`: the best one, then while the best so far
-/// correlates below the strong evidence, up to [`LocalizeConfig::fallbacks`] more.
+/// Refines `rounds` (best first) to the end, through the middle rounds (`middle`) and the last
+/// (`last`): the best one, then while the best so far correlates below the strong evidence, up to
+/// [`LocalizeConfig::fallbacks`] more. A fallback enters the last round only when it correlates
+/// better after the middle rounds than the best so far did there: the last round renders at the
+/// widest keyframe, most of a finalist's time, and a place behind at the same keyframe width and
+/// light is a place the last round's finer edges would have to lift past a better one (it aligns
+/// from where the middle rounds left it and rarely moves far).
 fn finish(
     rounds: &[Alignment],
     config: &LocalizeConfig,
-    refine: impl Fn(&Alignment) -> Alignment,
+    middle: impl Fn(&Alignment) -> Alignment,
+    last: impl Fn(&Alignment) -> Alignment,
 ) -> Finished {
+    let halfway = middle(&rounds[0]);
     let mut finished = Finished {
-        best: refine(&rounds[0]),
+        best: last(&halfway),
         first_round: rounds[0].score,
+        halfway: halfway.score,
         tried: 1,
     };
     for start in rounds.iter().skip(1).take(config.fallbacks) {
         if finished.best.score >= config.evidence.strong {
             break;
         }
-        let done = refine(start);
+        let halfway = middle(start);
         finished.tried += 1;
+        if halfway.score <= finished.halfway {
+            continue;
+        }
+        let done = last(&halfway);
         if done.score > finished.best.score {
-            (finished.best, finished.first_round) = (done, start.score);
+            finished = Finished {
+                best: done,
+                first_round: start.score,
+                halfway: halfway.score,
+                tried: finished.tried,
+            };
         }
     }
     finished
@@ -773,4 +795,74 @@ pub fn render_background<F: Field>(
     };
     let (rgb, depth, _) = render_image(scene, &camera, camera_to_world, config);
     (rgb, depth.data)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+    use std::cell::RefCell;
+
+    /// A finalist at `x` metres along the room's x axis with first-round correlation `score`.
+    fn finalist(x: f64, score: f64) -> Alignment {
+        Alignment {
+            camera_to_world: Pose::from_yaw_translation(0.0, DVec3::new(x, 0.0, 0.0)),
+            score,
+        }
+    }
+
+    /// `start` given the correlation `scores[x]` of its place, where it stands.
+    fn scored(start: &Alignment, scores: &[f64]) -> Alignment {
+        let x = start.camera_to_world.translation.x as usize;
+        Alignment {
+            score: scores[x],
+            ..*start
+        }
+    }
+
+    /// Runs [`finish`] on three finalists whose correlations after the middle rounds and after the
+    /// last are given per place; returns it and the places that entered the last round.
+    fn finish_three(halfway: [f64; 3], end: [f64; 3]) -> (Finished, Vec<usize>) {
+        let rounds = [finalist(0.0, 0.4), finalist(1.0, 0.35), finalist(2.0, 0.3)];
+        let finished_places = RefCell::new(Vec::new());
+        let finished = finish(
+            &rounds,
+            &LocalizeConfig::default(),
+            |start| scored(start, &halfway),
+            |start| {
+                let done = scored(start, &end);
+                finished_places
+                    .borrow_mut()
+                    .push(start.camera_to_world.translation.x as usize);
+                done
+            },
+        );
+        (finished, finished_places.into_inner())
+    }
+
+    #[test]
+    fn a_fallback_behind_halfway_skips_the_last_round() {
+        let (finished, last) = finish_three([0.30, 0.25, 0.45], [0.35, 0.9, 0.48]);
+        assert_eq!(last, vec![0, 2], "place 1 trails place 0 halfway");
+        assert_eq!(finished.tried, 3);
+        assert_eq!(finished.best.camera_to_world.translation.x, 2.0);
+        assert_eq!((finished.first_round, finished.halfway), (0.3, 0.45));
+    }
+
+    #[test]
+    fn a_fallback_ahead_halfway_but_behind_at_the_end_loses() {
+        let (finished, last) = finish_three([0.30, 0.32, 0.25], [0.35, 0.33, 0.9]);
+        assert_eq!(last, vec![0, 1]);
+        assert_eq!(finished.best.camera_to_world.translation.x, 0.0);
+        assert_eq!(
+            finished.halfway, 0.30,
+            "place 2 is judged against the kept place"
+        );
+    }
+
+    #[test]
+    fn strong_evidence_tries_no_fallback() {
+        let (finished, last) = finish_three([0.30, 0.9, 0.9], [0.6, 0.9, 0.9]);
+        assert_eq!((finished.tried, last), (1, vec![0]));
+    }
 }
