@@ -208,7 +208,7 @@ fn fit_names_a_bad_panorama_and_a_bad_initial_arrangement() {
         (dir.join("absent.png"), "cannot read"),
         (
             tiny_room().join("captures/box/images/0.png"),
-            "twice as wide as high",
+            "twice as wide as it is high",
         ),
         (tiny_room().join("panoramas/p0.depth.png"), "depth map"),
     ] {

@@ -5,9 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use glam::Vec3;
-use neuroom_core::formats::{
-    self, Arrangement, Room, read_arrangement, read_colour_photo, read_room,
-};
+use neuroom_core::formats::{self, Arrangement, Room, read_arrangement, read_panorama, read_room};
 use neuroom_core::image::RgbImage;
 use neuroom_field::NeusField;
 pub use neuroom_fit::{FitConfig, IterationLog};
@@ -57,14 +55,7 @@ pub fn fit_panorama(
     progress: &mut dyn FnMut(&IterationLog),
 ) -> anyhow::Result<(FitOutputs, FitReport)> {
     let panorama = input.panorama;
-    let image = read_colour_photo(panorama)?.image;
-    anyhow::ensure!(
-        image.width == 2 * image.height,
-        "{}: a panorama must be twice as wide as high (equirectangular), this one is {}×{}",
-        panorama.display(),
-        image.width,
-        image.height
-    );
+    let image = read_panorama(panorama)?;
     let start = read_arrangement(input.init)?;
     // The check's context (room, models, object clouds) is loaded before the fit, so that a room it
     // cannot use fails before minutes of fitting; the relation hints come from the room it read.

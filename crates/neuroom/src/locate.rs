@@ -879,18 +879,12 @@ pub fn write_search_view(
 /// JSON file of `transforms.json`'s camera keys, [`formats::read_intrinsics_file`]) a photo of that
 /// size.
 pub fn read_query(image: &Path, intrinsics: Option<&Path>) -> anyhow::Result<QueryImage> {
-    let rgb = formats::read_colour_photo(image)?.image;
     let Some(intrinsics) = intrinsics else {
-        anyhow::ensure!(
-            rgb.width == 2 * rgb.height,
-            "{}: a panorama must be twice as wide as it is high, found {}×{} (a photo needs \
-             --intrinsics)",
-            image.display(),
-            rgb.width,
-            rgb.height
-        );
-        return Ok(QueryImage::Panorama(rgb));
+        let panorama = formats::read_panorama(image)
+            .map_err(|e| anyhow::anyhow!("{e} (a photo needs --intrinsics)"))?;
+        return Ok(QueryImage::Panorama(panorama));
     };
+    let rgb = formats::read_colour_photo(image)?.image;
     let camera = formats::read_intrinsics_file(intrinsics)?;
     anyhow::ensure!(
         (camera.width, camera.height) == (rgb.width, rgb.height),

@@ -12,6 +12,7 @@
 //! Writers produce 8-bit sRGB PNG for colour (values in [0, 1] rounded to the nearest of 256 levels; NaN
 //! writes 0), 16-bit PNG for depth, and instance masks as 8-bit PNG when every id is ≤ 255, else 16-bit.
 
+use crate::camera::Equirect;
 use crate::error::{FormatError, FormatResult};
 use crate::image::{DepthImage, Image, MaskImage, RgbImage, RgbaImage};
 use png::{BitDepth, ColorType, Transformations};
@@ -98,6 +99,15 @@ pub fn read_colour_photo(path: impl AsRef<Path>) -> FormatResult<Decoded<RgbImag
         ));
     }
     Ok(decoded)
+}
+
+/// Reads an equirectangular panorama as [`read_colour_photo`] does, refusing one that is not exactly
+/// twice as wide as it is high ([`Equirect::new`]).
+pub fn read_panorama(path: impl AsRef<Path>) -> FormatResult<RgbImage> {
+    let path = path.as_ref();
+    let image = read_colour_photo(path)?.image;
+    Equirect::new(image.width, image.height).map_err(|e| FormatError::file(path, e))?;
+    Ok(image)
 }
 
 /// Reads a colour image as sRGB RGBA in [0, 1]; files without alpha get alpha 1.

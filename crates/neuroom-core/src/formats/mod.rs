@@ -21,7 +21,7 @@ pub use envmap::{EnvMap, decode_envmap, read_envmap};
 pub use images::{
     Conversion, Decoded, MAX_IMAGE_SIDE, check_same_size, decode_depth, decode_image_size,
     decode_mask, decode_rgb, decode_rgba, read_colour_photo, read_depth, read_image_size,
-    read_mask, read_rgb, read_rgba, write_depth, write_mask, write_rgb, write_rgba,
+    read_mask, read_panorama, read_rgb, read_rgba, write_depth, write_mask, write_rgb, write_rgba,
 };
 pub use room::{BackgroundSpec, Room, RoomObject, parse_room, read_room, write_room};
 pub use tensor_file::canonical_safetensors;
