@@ -1696,6 +1696,8 @@ fn descend<F: Field>(
     let supported = matches!(model.support, Support::On(_)) && placed.supports(model, start);
     for &(step, turn_deg) in steps {
         let turn = turn_deg.to_radians();
+        // The move last taken: its opposite leads back to a pose already scored lower.
+        let mut taken: Option<usize> = None;
         loop {
             let mut improved = false;
             let mut moves: Vec<Pose> = Vec::new();
@@ -1728,14 +1730,18 @@ fn descend<F: Field>(
                     moves.push(Pose::from_yaw_translation(pose.yaw() + a, pose.translation));
                 }
             }
-            for candidate in moves {
-                if supported && !placed.supports(model, &candidate) {
+            // Moves come in opposite pairs (2i, 2i + 1), so the way back of move j is j ^ 1.
+            let back = taken.map(|j| j ^ 1);
+            taken = None;
+            for (j, candidate) in moves.into_iter().enumerate() {
+                if Some(j) == back || (supported && !placed.supports(model, &candidate)) {
                     continue;
                 }
                 let s = eval(&candidate);
                 if s.0 > best.0 {
                     best = s;
                     pose = candidate;
+                    taken = Some(j);
                     improved = true;
                 }
             }
