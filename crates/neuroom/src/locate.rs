@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use glam::Vec3;
-use neuroom_core::camera::Pinhole;
+use neuroom_core::camera::{Equirect, Pinhole};
 use neuroom_core::camera_effects::CameraEffect;
 use neuroom_core::formats::{
     self, ArrangedObject, Arrangement, Room, RoomObject, read_rgb, read_room,
@@ -879,12 +879,14 @@ pub fn write_search_view(
 /// JSON file of `transforms.json`'s camera keys, [`formats::read_intrinsics_file`]) a photo of that
 /// size.
 pub fn read_query(image: &Path, intrinsics: Option<&Path>) -> anyhow::Result<QueryImage> {
-    let Some(intrinsics) = intrinsics else {
-        let panorama = formats::read_panorama(image)
-            .map_err(|e| anyhow::anyhow!("{e} (a photo needs --intrinsics)"))?;
-        return Ok(QueryImage::Panorama(panorama));
-    };
     let rgb = formats::read_colour_photo(image)?.image;
+    let Some(intrinsics) = intrinsics else {
+        // The shape check of `formats::read_panorama`, with the hint only a wrong shape needs.
+        Equirect::new(rgb.width, rgb.height).map_err(|e| {
+            anyhow::anyhow!("{}: {e} (a photo needs --intrinsics)", image.display())
+        })?;
+        return Ok(QueryImage::Panorama(rgb));
+    };
     let camera = formats::read_intrinsics_file(intrinsics)?;
     anyhow::ensure!(
         (camera.width, camera.height) == (rgb.width, rgb.height),
