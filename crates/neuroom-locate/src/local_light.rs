@@ -166,7 +166,12 @@ impl LightField {
 
 /// The sRGB colour `c` under the linear gains `g` (clipped at white).
 pub fn under_gain(c: [f32; 3], g: [f32; 3]) -> [f32; 3] {
-    std::array::from_fn(|k| linear_to_srgb((srgb_to_linear(c[k]) * g[k]).min(1.0)))
+    linear_under_gain(c.map(srgb_to_linear), g)
+}
+
+/// [`under_gain`] of a colour given in linear light (`linear`), as sRGB.
+pub fn linear_under_gain(linear: [f32; 3], g: [f32; 3]) -> [f32; 3] {
+    std::array::from_fn(|k| linear_to_srgb((linear[k] * g[k]).min(1.0)))
 }
 
 /// The light field mapping `empty` onto `query` (both `width × height` panoramas, sRGB) over the pixels

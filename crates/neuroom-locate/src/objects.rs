@@ -19,7 +19,7 @@
 use std::collections::HashMap;
 
 use glam::{DMat3, DVec3, Vec2, Vec3};
-use neuroom_core::image::relit;
+use neuroom_core::image::{relit, srgb_to_linear};
 use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use neuroom_field::Field;
@@ -31,7 +31,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::evidence::{SearchView, colour_error, dilate, relit_room, room_gains};
-use crate::local_light::under_gain;
+use crate::lattice::LatticePose;
+use crate::local_light::linear_under_gain;
+use crate::memo::{PlacedKey, PoseKey, ScoreKey, ScoreMemo};
 use crate::stage::LocateStage;
 
 /// Search settings.
@@ -168,6 +170,15 @@ struct Hypothesis {
     pose: Pose,
 }
 
+impl Hypothesis {
+    fn key(&self) -> PlacedKey {
+        PlacedKey {
+            model: self.model,
+            pose: PoseKey::of(&self.pose),
+        }
+    }
+}
+
 /// The scene as the objects placed so far make it: per pixel, the colour error of the nearest
 /// surface (the empty room's, or a placed object's where one is in front) and that surface's distance;
 /// and the boxes of the placed objects (the room's volume they occupy).
@@ -177,6 +188,8 @@ struct Placed {
     /// Whether the pixel still shows the empty room (no placed object in front).
     room_front: Vec<bool>,
     boxes: Vec<OrientedBox>,
+    /// The placed objects, in the order they were put in (what makes this scene, for [`ScoreMemo`]).
+    contents: Vec<PlacedKey>,
 }
 
 impl Placed {
@@ -187,6 +200,7 @@ impl Placed {
             depth: target.view.empty_depth.clone(),
             room_front: vec![true; target.room_error.len()],
             boxes: Vec::new(),
+            contents: Vec::new(),
         }
     }
 
@@ -230,15 +244,16 @@ impl Placed {
         gain > 0.0 && gain >= config.min_contrast * self.changed(other) as f64
     }
 
-    /// Puts `model` at `pose` into the scene: its visible pixels take its colour error and distance,
-    /// its box takes its volume.
+    /// Puts `object` into the scene: its visible pixels take its colour error and distance, its box
+    /// takes its volume.
     fn add<F>(
         &mut self,
         target: &Target<F>,
-        model: &ObjectModel,
-        pose: &Pose,
+        models: &[ObjectModel],
+        object: &Hypothesis,
         config: &SearchConfig,
     ) {
+        let (model, pose) = (&models[object.model], &object.pose);
         let sil = silhouette(target, &model.fine, pose, &self.depth);
         let judged = judge(target, self, &sil, config);
         for s in &judged.samples {
@@ -250,6 +265,7 @@ impl Placed {
             self.room_front[p as usize] = false;
         }
         self.boxes.push(model.box_at(pose));
+        self.contents.push(object.key());
     }
 }
 
@@ -322,10 +338,19 @@ struct Target<'a, F> {
     supersample: usize,
     /// The empty room's colour per pixel under the query's global gain ([`relit`]).
     room_color: Vec<[f32; 3]>,
+    /// `room_color` in linear light, where a light field relights it per hypothesis (empty without
+    /// one): converted once, not for every hypothesis that covers the pixel.
+    room_linear: Vec<[f32; 3]>,
     /// Colour error of the empty room per pixel (mean absolute difference from `room_color`, as
     /// [`crate::evidence::residual`]; a constant where it has no surface).
     room_error: Vec<f32>,
+    /// The scores computed so far ([`hypothesis_score`]), by scene and pose.
+    scores: ScoreMemo<Score>,
 }
+
+/// A hypothesis's score: (score, pixels it explains better than the scene, their fraction of its
+/// visible pixels); see [`score`].
+type Score = (f64, usize, f64);
 
 impl<'a, F: Field> Target<'a, F> {
     fn new(input: &SearchInput<'a, F>, config: &SearchConfig) -> Self {
@@ -377,7 +402,12 @@ impl<'a, F: Field> Target<'a, F> {
                     }
                 })
                 .collect(),
+            room_linear: match view.light {
+                Some(_) => room_color.iter().map(|c| c.map(srgb_to_linear)).collect(),
+                None => Vec::new(),
+            },
             room_color,
+            scores: ScoreMemo::new(),
         }
     }
 }
@@ -398,7 +428,7 @@ impl<F> Target<'_, F> {
         match (&self.view.light, field_gain) {
             (Some(light), Some(g)) => {
                 let own = light.field.gain(p);
-                under_gain(self.room_color[p], std::array::from_fn(|k| g[k] / own[k]))
+                linear_under_gain(self.room_linear[p], std::array::from_fn(|k| g[k] / own[k]))
             }
             _ => self.room_color[p],
         }
@@ -457,7 +487,7 @@ pub fn pose_score<F: Field>(
     let target = Target::new(&input, config);
     let placed = Placed::nothing(&target);
     let model = &input.models[m];
-    hypothesis_score(&target, &placed, model, false, pose, config)
+    score_afresh(&target, &placed, model, false, pose, config)
 }
 
 /// The search's objective for the objects `found` placed in `input`: the panorama's summed colour error
@@ -639,16 +669,7 @@ fn polished<F: Field>(
     hypotheses
         .into_par_iter()
         .map(|h| Hypothesis {
-            pose: descend(
-                target,
-                placed,
-                &models[h.model],
-                &h.pose,
-                true,
-                &POLISH_STEPS,
-                config,
-            )
-            .0,
+            pose: descend(target, placed, models, &h, true, &POLISH_STEPS, config).0,
             ..h
         })
         .collect()
@@ -833,7 +854,7 @@ fn prune_in<F: Field>(
         .into_par_iter()
         .map(|h| {
             let model = &models[h.model];
-            let s = hypothesis_score(target, placed, model, true, &h.pose, config);
+            let s = hypothesis_score(target, placed, models, &h, true, config);
             Scored {
                 score: s.0,
                 hypothesis: h,
@@ -913,7 +934,7 @@ fn score<F>(
 ) -> (f64, usize, f64) {
     let judged = judge(target, placed, sil, config);
     if judged.samples.is_empty() {
-        return (0.0, 0, 0.0);
+        return NO_SCORE;
     }
     let (mut total, mut wins) = (0.0f64, 0usize);
     for s in &judged.samples {
@@ -1142,13 +1163,7 @@ fn contenders<F: Field>(
     let mut scored: Vec<(usize, f64)> = pool
         .par_iter()
         .enumerate()
-        .map(|(k, h)| {
-            let model = &models[h.model];
-            (
-                k,
-                hypothesis_score(target, placed, model, true, &h.pose, config),
-            )
-        })
+        .map(|(k, h)| (k, hypothesis_score(target, placed, models, h, true, config)))
         .filter(|(_, s)| s.0 > 0.0)
         .map(|(k, s)| (k, s.0))
         .collect();
@@ -1191,7 +1206,7 @@ fn greedy<F: Field>(
             .par_iter()
             .map(|&k| {
                 let h = &pool[k];
-                let (pose, s) = refine(target, &placed, &models[h.model], &h.pose, config);
+                let (pose, s) = refine(target, &placed, models, h, config);
                 (k, pose, s)
             })
             .collect();
@@ -1214,7 +1229,7 @@ fn greedy<F: Field>(
             continue;
         };
         let model = &models[m];
-        placed.add(target, model, &pose, config);
+        placed.add(target, models, &Hypothesis { model: m, pose }, config);
         let id = free_id(model, &found);
         used[m] += 1;
         found.push(Found {
@@ -1245,8 +1260,11 @@ fn placed_scene<F>(
 ) -> Placed {
     let mut placed = Placed::nothing(target);
     for f in found {
-        let pose = f.pose();
-        placed.add(target, &models[f.model], &pose, config);
+        let object = Hypothesis {
+            model: f.model,
+            pose: f.pose(),
+        };
+        placed.add(target, models, &object, config);
     }
     placed
 }
@@ -1296,7 +1314,7 @@ fn exchange<F: Field>(
         let starts: Vec<(Pose, (f64, usize, f64))> =
             contenders(target, &empty, models, &own, config)
                 .par_iter()
-                .map(|&k| refine(target, &empty, model, &own[k].pose, config))
+                .map(|&k| refine(target, &empty, models, &own[k], config))
                 .filter(|(_, s)| accepted(s, config))
                 .collect();
         let mut best: Option<(f64, Vec<Found>, Placed)> = None;
@@ -1434,9 +1452,9 @@ fn revisit_first<F: Field>(
                 .into_iter()
                 .map(|i| own[i]),
         );
-        let refined: Vec<(Pose, (f64, usize, f64))> = starts
+        let refined: Vec<(Pose, Score)> = starts
             .par_iter()
-            .map(|h| refine(target, &placed, model, &h.pose, config))
+            .map(|h| refine(target, &placed, models, h, config))
             .filter(|(_, s)| accepted(s, config))
             .collect();
         // The first of the best scores, in the order of the starts.
@@ -1491,17 +1509,39 @@ fn revisit_starts(model: &ObjectModel, current: &Pose) -> Vec<Pose> {
 /// side or 10–40° to the other; with these starts the bedroom preset's IoU went from 76.7 to 79.3 %.
 const REVISIT_SMALL_TURN: f64 = 0.1;
 
-/// [`score`] of `model` at `pose` (coarse or fine cloud), discounted by its [`room_misfit`].
+/// [`score`] of hypothesis `h` (coarse or fine cloud) in the scene `placed`, discounted by its
+/// [`room_misfit`]; looked up when already computed ([`Target::scores`]).
 fn hypothesis_score<F: Field>(
+    target: &Target<F>,
+    placed: &Placed,
+    models: &[ObjectModel],
+    h: &Hypothesis,
+    coarse: bool,
+    config: &SearchConfig,
+) -> Score {
+    let key = ScoreKey {
+        object: h.key(),
+        coarse,
+    };
+    target.scores.get_or(&placed.contents, key, || {
+        score_afresh(target, placed, &models[h.model], coarse, &h.pose, config)
+    })
+}
+
+/// The score of nothing explained (a hypothesis that stands inside a placed object or by the camera).
+const NO_SCORE: Score = (0.0, 0, 0.0);
+
+/// [`hypothesis_score`] computed, not looked up.
+fn score_afresh<F: Field>(
     target: &Target<F>,
     placed: &Placed,
     model: &ObjectModel,
     coarse: bool,
     pose: &Pose,
     config: &SearchConfig,
-) -> (f64, usize, f64) {
+) -> Score {
     if placed.collides(model, pose, config) || blocks_camera(target, model, pose, config) {
-        return (0.0, 0, 0.0);
+        return NO_SCORE;
     }
     let cloud = if coarse { &model.coarse } else { &model.fine };
     let sil = silhouette(target, cloud, pose, &placed.depth);
@@ -1593,7 +1633,7 @@ fn standing<F: Field>(
     let (f, model) = (&found[k], &models[found[k].model]);
     let pose = f.pose();
     if others.collides(model, &pose, config) {
-        return (0.0, 0, 0.0);
+        return NO_SCORE;
     }
     let sil = silhouette(target, &model.fine, &pose, &others.depth);
     let s = score(target, &others, &sil, config);
@@ -1660,15 +1700,16 @@ fn support_grid(
     hyps
 }
 
-/// Coordinate descent on (x, y, z, yaw) with shrinking steps, scored with the fine cloud.
+/// Coordinate descent on (x, y, z, yaw) from `start` with shrinking steps, scored with the fine cloud
+/// in the scene `placed`.
 fn refine<F: Field>(
     target: &Target<F>,
     placed: &Placed,
-    model: &ObjectModel,
-    start: &Pose,
+    models: &[ObjectModel],
+    start: &Hypothesis,
     config: &SearchConfig,
-) -> (Pose, (f64, usize, f64)) {
-    descend(target, placed, model, start, false, &REFINE_STEPS, config)
+) -> (Pose, Score) {
+    descend(target, placed, models, start, false, &REFINE_STEPS, config)
 }
 
 /// The (metres, degrees) steps of [`refine`], coarse to fine.
@@ -1678,39 +1719,48 @@ const REFINE_STEPS: [(f64, f64); 4] = [(0.1, 15.0), (0.05, 8.0), (0.02, 3.0), (0
 const POLISH_STEPS: [(f64, f64); 1] = [(0.05, 8.0)];
 
 /// Coordinate descent on (x, y, z, yaw) over `steps` (metres, degrees), scored with the coarse or the
-/// fine cloud.
+/// fine cloud. The poses visited lie on a fine lattice ([`LatticePose`]), so that a pose reached again
+/// (by another start, or by another pass in the same scene) has the same score, looked up.
 fn descend<F: Field>(
     target: &Target<F>,
     placed: &Placed,
-    model: &ObjectModel,
-    start: &Pose,
+    models: &[ObjectModel],
+    start: &Hypothesis,
     coarse: bool,
     steps: &[(f64, f64)],
     config: &SearchConfig,
-) -> (Pose, (f64, usize, f64)) {
-    let eval = |pose: &Pose| hypothesis_score(target, placed, model, coarse, pose, config);
-    let mut pose = *start;
+) -> (Pose, Score) {
+    let m = start.model;
+    let model = &models[m];
+    let eval = |pose: &LatticePose| {
+        let h = Hypothesis {
+            model: m,
+            pose: pose.pose(),
+        };
+        hypothesis_score(target, placed, models, &h, coarse, config)
+    };
+    let mut pose = LatticePose::nearest(&start.pose);
     let mut best = eval(&pose);
     let vertical = model.support == Support::Wall;
     // An object that stands on another slides on its supporter's top, never off it into the air.
-    let supported = matches!(model.support, Support::On(_)) && placed.supports(model, start);
-    for &(step, turn_deg) in steps {
-        let turn = turn_deg.to_radians();
+    let supported = matches!(model.support, Support::On(_)) && placed.supports(model, &start.pose);
+    for &(step, turn) in steps {
         // The move last taken: its opposite leads back to a pose already scored lower.
         let mut taken: Option<usize> = None;
         loop {
             let mut improved = false;
-            let mut moves: Vec<Pose> = Vec::new();
+            let mut moves: Vec<LatticePose> = Vec::new();
             // A wall object slides along its wall (its y axis), up and down, and to and from the
             // wall (its x axis: its hypothesis stands where the learned wall is); others on the floor.
             let axes = if vertical {
-                let along = pose.rotation * DVec3::Y;
+                let (sin, cos) = pose.yaw_rad().sin_cos();
+                let (along, out) = (DVec3::new(-sin, cos, 0.0), DVec3::new(cos, sin, 0.0));
                 vec![
                     along,
                     DVec3::Z,
                     (along + DVec3::Z) * 0.7,
                     (along - DVec3::Z) * 0.7,
-                    pose.rotation * DVec3::X,
+                    out,
                 ]
             } else {
                 vec![
@@ -1722,19 +1772,19 @@ fn descend<F: Field>(
             };
             for axis in axes {
                 for d in [-step, step] {
-                    moves.push(shifted(&pose, axis * d));
+                    moves.push(pose.moved(axis * d));
                 }
             }
             if !vertical {
                 for a in [-turn, turn] {
-                    moves.push(Pose::from_yaw_translation(pose.yaw() + a, pose.translation));
+                    moves.push(pose.turned(a));
                 }
             }
             // Moves come in opposite pairs (2i, 2i + 1), so the way back of move j is j ^ 1.
             let back = taken.map(|j| j ^ 1);
             taken = None;
             for (j, candidate) in moves.into_iter().enumerate() {
-                if Some(j) == back || (supported && !placed.supports(model, &candidate)) {
+                if Some(j) == back || (supported && !placed.supports(model, &candidate.pose())) {
                     continue;
                 }
                 let s = eval(&candidate);
@@ -1750,11 +1800,7 @@ fn descend<F: Field>(
             }
         }
     }
-    (pose, best)
-}
-
-fn shifted(pose: &Pose, d: DVec3) -> Pose {
-    Pose::new(pose.rotation, pose.translation + d)
+    (pose.pose(), best)
 }
 
 #[cfg(test)]
@@ -1905,6 +1951,7 @@ mod tests {
             error: Vec::new(),
             depth: Vec::new(),
             room_front: Vec::new(),
+            contents: Vec::new(),
             boxes: vec![table.box_at(&Pose::from_yaw_translation(0.3, DVec3::new(1.0, 1.0, 0.25)))],
         };
         let config = SearchConfig::default();
@@ -1982,6 +2029,7 @@ mod tests {
                 .collect(),
             room_front: vec![true; 1000],
             boxes: Vec::new(),
+            contents: Vec::new(),
         };
         let now = scene(0.05, 0);
         // 400 pixels changed: 0.01 lower on each is within the colour model's noise, 0.02 is not.
@@ -2131,9 +2179,47 @@ mod tests {
         ];
         for tint in tints {
             in_tinted_view(tint, |target, placed, model, pose| {
-                let s = hypothesis_score(target, placed, model, false, pose, &config);
+                let s = score_afresh(target, placed, model, false, pose, &config);
                 assert!(accepted(&s, &config), "tint {tint}: {s:?}");
             });
         }
+    }
+
+    #[test]
+    fn a_looked_up_score_is_the_score_computed_afresh() {
+        // Scores are kept per scene and pose: a score looked up is the one computing it gives, in
+        // the empty room and in a scene with an object placed, whether the hypothesis overlaps it
+        // or not.
+        let config = SearchConfig::default();
+        in_tinted_view(Vec3::ONE, |target, empty, model, pose| {
+            let models = [model.clone()];
+            let at = |yaw: f64, dx: f64, dy: f64| Hypothesis {
+                model: 0,
+                pose: Pose::from_yaw_translation(
+                    pose.yaw() + yaw,
+                    pose.translation + DVec3::new(dx, dy, 0.0),
+                ),
+            };
+            let mut placed = Placed::nothing(target);
+            placed.add(target, &models, &at(0.0, 0.0, 0.0), &config);
+            let hypotheses = [
+                at(0.0, 0.0, 0.0),   // inside the placed box
+                at(0.3, 0.05, 0.6),  // beside it, partly in front of it
+                at(0.0, -2.0, -1.0), // far from it, clear of its pixels
+                at(1.0, -1.2, 0.9),
+            ];
+            for h in &hypotheses {
+                for scene in [empty, &placed] {
+                    for coarse in [true, false] {
+                        let direct = score_afresh(target, scene, model, coarse, &h.pose, &config);
+                        for _ in 0..2 {
+                            let looked_up =
+                                hypothesis_score(target, scene, &models, h, coarse, &config);
+                            assert_eq!(looked_up, direct, "{h:?} coarse {coarse}");
+                        }
+                    }
+                }
+            }
+        });
     }
 }
