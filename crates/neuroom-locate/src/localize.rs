@@ -67,8 +67,8 @@ pub struct LocalizeConfig {
     pub render: RenderConfig,
     /// When the best finalist's refined correlation is below [`CameraEvidence::strong`], this many
     /// more finalists (the next best after the first rendered round) are refined too and the best
-    /// correlation wins: a light the captures never saw can rank a wrong place first. Each goes
-    /// through every round but the last, and through the last only when it leads there (`finish`).
+    /// correlation wins: a light the captures never saw can rank a wrong place first. Each goes on
+    /// to the next round only while it leads after the one before (`finish`).
     #[serde(default = "default_fallbacks")]
     pub fallbacks: usize,
     /// How the final correlation and the best other place become the camera's confidence.
@@ -401,7 +401,8 @@ fn localize_as<F: Field>(
     let finished = finish(
         &rounds,
         config,
-        |start| within(refine(scene, panorama, start, middle, early), start),
+        middle.len(),
+        |start, k| within(refine(scene, panorama, start, &middle[k..=k], early), start),
         |halfway| within(refine(scene, panorama, halfway, last, &six_dof), halfway),
     );
     let t3 = Instant::now();
@@ -518,51 +519,82 @@ struct Finished {
     best: Alignment,
     /// Its correlation after the first rendered round.
     first_round: f64,
-    /// Its correlation before the last round.
-    halfway: f64,
+    /// Its correlation after each of the middle rounds.
+    marks: Vec<f64>,
     tried: usize,
 }
 
-/// Refines `rounds` (best first) to the end, through the middle rounds (`middle`) and the last
-/// (`last`): the best one, then while the best so far correlates below the strong evidence, up to
-/// [`LocalizeConfig::fallbacks`] more. A fallback enters the last round only when it correlates
-/// better after the middle rounds than the best so far did there: the last round renders at the
-/// widest keyframe, most of a finalist's time, and a place behind at the same keyframe width and
-/// light is a place the last round's finer edges would have to lift past a better one (it aligns
-/// from where the middle rounds left it and rarely moves far).
+/// Refines `rounds` (best first) to the end, through the `middle_rounds` middle rounds (`middle`,
+/// given the round's index) and the last (`last`): the best one, then while the best so far
+/// correlates below the strong evidence, up to [`LocalizeConfig::fallbacks`] more. A fallback goes
+/// on to the next round only while it correlates better than the best so far did after the same
+/// round, and so enters the last only when it leads after every middle one: the rounds render
+/// keyframes ever wider, most of a finalist's time, and a place behind at the same keyframe width
+/// and light is a place the finer edges of the later rounds would have to lift past a better one
+/// (each round aligns from where the last left the camera and rarely moves it far).
 fn finish(
     rounds: &[Alignment],
     config: &LocalizeConfig,
-    middle: impl Fn(&Alignment) -> Alignment,
+    middle_rounds: usize,
+    middle: impl Fn(&Alignment, usize) -> Alignment,
     last: impl Fn(&Alignment) -> Alignment,
 ) -> Finished {
-    let halfway = middle(&rounds[0]);
+    let mut halfway = rounds[0];
+    let mut marks = Vec::with_capacity(middle_rounds);
+    for k in 0..middle_rounds {
+        halfway = middle(&halfway, k);
+        marks.push(halfway.score);
+    }
     let mut finished = Finished {
         best: last(&halfway),
         first_round: rounds[0].score,
-        halfway: halfway.score,
+        marks,
         tried: 1,
     };
     for start in rounds.iter().skip(1).take(config.fallbacks) {
         if finished.best.score >= config.evidence.strong {
             break;
         }
-        let halfway = middle(start);
         finished.tried += 1;
-        if halfway.score <= finished.halfway {
+        let Some(leading) = ahead_through(start, &finished.marks, &middle) else {
             continue;
-        }
-        let done = last(&halfway);
+        };
+        let done = last(&leading.halfway);
         if done.score > finished.best.score {
             finished = Finished {
                 best: done,
                 first_round: start.score,
-                halfway: halfway.score,
+                marks: leading.marks,
                 tried: finished.tried,
             };
         }
     }
     finished
+}
+
+/// A fallback through the middle rounds, and its correlation after each.
+struct Leading {
+    halfway: Alignment,
+    marks: Vec<f64>,
+}
+
+/// `start` through the middle rounds (`middle`) while it correlates better than `best_marks`, the
+/// best so far after each; `None` once it does not.
+fn ahead_through(
+    start: &Alignment,
+    best_marks: &[f64],
+    middle: &impl Fn(&Alignment, usize) -> Alignment,
+) -> Option<Leading> {
+    let mut halfway = *start;
+    let mut marks = Vec::with_capacity(best_marks.len());
+    for (k, &mark) in best_marks.iter().enumerate() {
+        halfway = middle(&halfway, k);
+        if halfway.score <= mark {
+            return None;
+        }
+        marks.push(halfway.score);
+    }
+    Some(Leading { halfway, marks })
 }
 
 /// Whether two cameras stand within `radius` metres and radians of heading of each other.
@@ -820,15 +852,29 @@ mod tests {
         }
     }
 
-    /// Runs [`finish`] on three finalists whose correlations after the middle rounds and after the
+    /// Runs [`finish`] on three finalists whose correlations after one middle round and after the
     /// last are given per place; returns it and the places that entered the last round.
     fn finish_three(halfway: [f64; 3], end: [f64; 3]) -> (Finished, Vec<usize>) {
+        finish_three_through(&[halfway], end).0
+    }
+
+    /// [`finish_three`] through a middle round per entry of `middle` (each place's correlation
+    /// after it); also the places that entered each middle round.
+    fn finish_three_through(
+        middle: &[[f64; 3]],
+        end: [f64; 3],
+    ) -> ((Finished, Vec<usize>), Vec<Vec<usize>>) {
         let rounds = [finalist(0.0, 0.4), finalist(1.0, 0.35), finalist(2.0, 0.3)];
         let finished_places = RefCell::new(Vec::new());
+        let entered = RefCell::new(vec![Vec::new(); middle.len()]);
         let finished = finish(
             &rounds,
             &LocalizeConfig::default(),
-            |start| scored(start, &halfway),
+            middle.len(),
+            |start, k| {
+                entered.borrow_mut()[k].push(start.camera_to_world.translation.x as usize);
+                scored(start, &middle[k])
+            },
             |start| {
                 let done = scored(start, &end);
                 finished_places
@@ -837,7 +883,10 @@ mod tests {
                 done
             },
         );
-        (finished, finished_places.into_inner())
+        (
+            (finished, finished_places.into_inner()),
+            entered.into_inner(),
+        )
     }
 
     #[test]
@@ -846,7 +895,10 @@ mod tests {
         assert_eq!(last, vec![0, 2], "place 1 trails place 0 halfway");
         assert_eq!(finished.tried, 3);
         assert_eq!(finished.best.camera_to_world.translation.x, 2.0);
-        assert_eq!((finished.first_round, finished.halfway), (0.3, 0.45));
+        assert_eq!(
+            (finished.first_round, finished.marks.clone()),
+            (0.3, vec![0.45])
+        );
     }
 
     #[test]
@@ -855,7 +907,8 @@ mod tests {
         assert_eq!(last, vec![0, 1]);
         assert_eq!(finished.best.camera_to_world.translation.x, 0.0);
         assert_eq!(
-            finished.halfway, 0.30,
+            finished.marks,
+            vec![0.30],
             "place 2 is judged against the kept place"
         );
     }
@@ -864,5 +917,17 @@ mod tests {
     fn strong_evidence_tries_no_fallback() {
         let (finished, last) = finish_three([0.30, 0.9, 0.9], [0.6, 0.9, 0.9]);
         assert_eq!((finished.tried, last), (1, vec![0]));
+    }
+
+    #[test]
+    fn a_fallback_behind_after_a_middle_round_skips_the_rounds_after_it() {
+        // Place 1 trails place 0 after the first middle round: it renders no more. Place 2 leads
+        // after both and wins.
+        let ((finished, last), entered) =
+            finish_three_through(&[[0.30, 0.25, 0.35], [0.32, 0.9, 0.40]], [0.35, 0.9, 0.48]);
+        assert_eq!(entered, vec![vec![0, 1, 2], vec![0, 2]]);
+        assert_eq!(last, vec![0, 2]);
+        assert_eq!(finished.best.camera_to_world.translation.x, 2.0);
+        assert_eq!(finished.marks, vec![0.35, 0.40]);
     }
 }
