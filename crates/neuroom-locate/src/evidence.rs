@@ -5,6 +5,8 @@
 //! [`ResidualDetector`] is this classical one, and a learned detector plugs in through the same trait
 //! (it may also name the model of each detection).
 
+use glam::{DVec2, Vec3};
+use neuroom_core::camera::{CameraModel, Equirect};
 use neuroom_core::image::{RgbImage, relit, srgb_to_linear};
 use neuroom_panorama::Detection;
 use neuroom_panorama::region::components;
@@ -46,6 +48,17 @@ impl SearchView {
     /// Whether the camera saw pixel `p`.
     pub fn sees(&self, p: usize) -> bool {
         self.seen.as_ref().is_none_or(|s| s[p])
+    }
+
+    /// The unit ray of pixel `p`'s centre (camera frame).
+    pub fn direction(&self, p: usize) -> Vec3 {
+        let camera = Equirect {
+            width: self.query.width,
+            height: self.query.height,
+        };
+        let (u, v) = (p % self.width(), p / self.width());
+        let pixel = DVec2::new(u as f64 + 0.5, v as f64 + 0.5);
+        camera.direction(pixel).as_vec3()
     }
 }
 

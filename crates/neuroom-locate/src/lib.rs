@@ -7,7 +7,8 @@
 //!   against database panoramas, then against keyframes rendered at the current estimate; levelling
 //!   from straight edges ([`level`]).
 //! - Light: [`shading`] (the empty room re-shaded to the panorama's lighting, by a gain that depends on
-//!   the surface normal) times a smooth field over the panorama ([`local_light`]).
+//!   the surface normal) times a light at a point of the room ([`point_light`]) times a smooth field
+//!   over the panorama ([`local_light`]).
 //! - Objects: [`evidence`] (where the panorama differs from that empty room; the
 //!   [`evidence::Detector`] trait is what a region detector implements), [`objects`] (pose hypotheses
 //!   on the floor, on walls and on other objects, scored by render-and-compare, taken greedily),
@@ -27,9 +28,12 @@ pub mod localize;
 mod memo;
 pub mod merge;
 pub mod objects;
+pub mod point_light;
 pub mod shading;
 pub mod sphere_image;
 pub mod stage;
+#[cfg(test)]
+mod test_rooms;
 pub mod yaw;
 
 pub use localize::{CameraEstimate, LocalizeConfig, localize, render_background};

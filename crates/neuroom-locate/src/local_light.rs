@@ -17,6 +17,7 @@ use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
 use serde::{Deserialize, Serialize};
 
 use crate::cell_smooth::{CellSmoother, CellSums};
+use crate::point_light::{PointLight, RoomPixels};
 use crate::shading::{NormalGain, fit_room_shading, panorama_normals};
 use crate::sphere_image::CLIPPED;
 
@@ -29,7 +30,9 @@ use crate::sphere_image::CLIPPED;
 pub struct RoomLight {
     /// The gain by the surface normal (camera frame).
     pub shading: NormalGain,
-    /// The smooth field on top of it.
+    /// A light at a point of the room on top of it ([`crate::point_light`]; `None` when not fitted).
+    pub point: Option<PointLight>,
+    /// The smooth field on top of both.
     pub field: LightField,
 }
 
@@ -63,22 +66,62 @@ impl RoomLight {
                 crate::evidence::room_gains_of(query, empty, &seen_depth).map(f64::from),
             )
         };
-        let shaded = shading.apply(empty, &normals);
+        let mut shaded = shading.apply(empty, &normals);
+        let point = config.point_light.then(|| {
+            let room = RoomPixels {
+                query,
+                empty: &shaded,
+                depth,
+                normals: &normals,
+                seen,
+            };
+            let point = PointLight::fit(&room, config.dark_level);
+            shaded = point.apply(&shaded, depth, &normals);
+            point
+        });
         let field = fit_light_field(query, &shaded, depth, seen, config);
-        Self { shading, field }
+        Self {
+            shading,
+            point,
+            field,
+        }
     }
 
-    /// The empty room `empty` (with surface normals `normals`, camera frame) under this light.
-    pub fn relight_room(&self, empty: &RgbImage, normals: &[Option<Vec3>]) -> RgbImage {
-        self.field.apply(&self.shading.apply(empty, normals))
+    /// The empty room `empty` (ray distances `depth`, surface normals `normals`, camera frame) under
+    /// this light.
+    pub fn relight_room(
+        &self,
+        empty: &RgbImage,
+        depth: &[f32],
+        normals: &[Option<Vec3>],
+    ) -> RgbImage {
+        let shaded = self.shading.apply(empty, normals);
+        match &self.point {
+            Some(point) => self.field.apply(&point.apply(&shaded, depth, normals)),
+            None => self.field.apply(&shaded),
+        }
     }
 
-    /// The sRGB colour `c` of an object's surface with unit normal `normal` (camera frame) where the
-    /// field's gain is `field_gain` ([`LightField::gain`], or [`LightField::gains_without`] the
-    /// object's pixels), under this light (in linear light, clipped at white).
-    pub fn relight_object(&self, field_gain: [f32; 3], c: [f32; 3], normal: Vec3) -> [f32; 3] {
+    /// The sRGB colour `c` of an object's surface at `point` with unit normal `normal` (both camera
+    /// frame) where the field's gain is `field_gain` ([`LightField::gain`], or
+    /// [`LightField::gains_without`] the object's pixels), under this light (in linear light, clipped
+    /// at white).
+    pub fn relight_object(
+        &self,
+        field_gain: [f32; 3],
+        c: [f32; 3],
+        point: Vec3,
+        normal: Vec3,
+    ) -> [f32; 3] {
         let s = self.shading.at(Some(normal));
-        under_gain(c, std::array::from_fn(|k| s[k] as f32 * field_gain[k]))
+        let p = match &self.point {
+            Some(light) => light.gain(point, normal),
+            None => [1.0; 3],
+        };
+        under_gain(
+            c,
+            std::array::from_fn(|k| s[k] as f32 * p[k] * field_gain[k]),
+        )
     }
 }
 
@@ -94,6 +137,12 @@ pub struct LocalLightConfig {
     /// Linear-light level below which a pixel's ratio counts less (its weight is its level over its
     /// level plus this): noise in the darkest pixels says little of the light.
     pub dark_level: f32,
+    /// Whether a light at a point of the room ([`crate::point_light`]) is fitted under the field: a
+    /// bulb or a lamp lights an object by where it stands, not by the wall behind it. Off by default:
+    /// an isotropic point mimics a window's light from inside the room and lights the faces of the
+    /// objects by the window that the window does not (docs/experiment-log.md).
+    #[serde(default)]
+    pub point_light: bool,
 }
 
 impl Default for LocalLightConfig {
@@ -102,6 +151,7 @@ impl Default for LocalLightConfig {
             sigma_deg: 6.0,
             rounds: 3,
             dark_level: 0.01,
+            point_light: false,
         }
     }
 }
@@ -392,5 +442,42 @@ mod tests {
                 assert!((g - 2.0).abs() < 0.05, "pixel {p}: {g}");
             }
         }
+    }
+
+    #[test]
+    fn an_object_nearer_a_fitted_bulb_is_lit_more_than_the_wall_behind_it() {
+        // A room with a floor 1.2 m below the camera and walls 3 m away, lit by a bulb 1 m above
+        // the floor: the relit room matches the query, and a surface between the bulb and the wall
+        // takes more light than the wall behind it.
+        let (w, h) = (256, 128);
+        let (low, high) = (Vec3::new(-3.0, -3.0, -1.2), Vec3::new(3.0, 3.0, 1.6));
+        let depth = crate::test_rooms::box_room_depth(w, h, low, high);
+        let normals = panorama_normals(&depth, w, h);
+        let empty = image(w, h, |u, v| [0.3 + 0.1 * ((u / 5 + v / 7) % 2) as f32; 3]);
+        let bulb = PointLight {
+            position: Vec3::new(2.0, 0.5, -0.2),
+            ambient: [0.3; 3],
+            strength: [1.2; 3],
+            facing: None,
+        };
+        let query = bulb.apply(&empty, &depth, &normals);
+        let config = LocalLightConfig {
+            point_light: true,
+            ..LocalLightConfig::default()
+        };
+        let light = RoomLight::fit(&query, &empty, &depth, None, false, &config);
+        let relit = light.relight_room(&empty, &depth, &normals);
+        let mean_error = (relit.data.iter().zip(&query.data))
+            .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).sum::<f32>() / 3.0)
+            .sum::<f32>()
+            / (w * h) as f32;
+        assert!(mean_error < 0.01, "{mean_error}");
+        let p = (h / 2) * w; // the centre column, on the horizon: the wall at x = 3
+        let (normal, grey) = (Vec3::NEG_X, [0.4; 3]);
+        let wall =
+            light.relight_object(light.field.gain(p), grey, Vec3::new(3.0, 0.0, 0.0), normal);
+        let nearer =
+            light.relight_object(light.field.gain(p), grey, Vec3::new(2.6, 0.0, 0.0), normal);
+        assert!(nearer[0] > wall[0] + 0.02, "{nearer:?} against {wall:?}");
     }
 }

@@ -434,14 +434,22 @@ impl<F> Target<'_, F> {
         }
     }
 
-    /// An object's learnt colour `c` on its surface of world normal `normal` where the light field's
-    /// gain is `field_gain` ([`SearchView::light`]; `None`: one light everywhere): an object takes the light
-    /// of the place it stands in.
-    fn lit(&self, field_gain: Option<[f32; 3]>, c: Vec3, normal: Vec3) -> Vec3 {
+    /// An object's learnt colour `c` on its surface of world normal `normal`, seen at pixel `p` at
+    /// distance `depth`, where the light field's gain is `field_gain` ([`SearchView::light`]; `None`:
+    /// one light everywhere): an object takes the light of the place it stands in.
+    fn lit(
+        &self,
+        field_gain: Option<[f32; 3]>,
+        c: Vec3,
+        normal: Vec3,
+        p: usize,
+        depth: f32,
+    ) -> Vec3 {
         match (&self.view.light, field_gain) {
             (Some(light), Some(g)) => {
                 let n = self.camera.rotation.transpose() * normal.as_dvec3();
-                Vec3::from(light.relight_object(g, c.to_array(), n.as_vec3()))
+                let point = self.view.direction(p) * depth;
+                Vec3::from(light.relight_object(g, c.to_array(), point, n.as_vec3()))
             }
             _ => c,
         }
@@ -994,7 +1002,7 @@ fn judge<F>(
                 pixel: p,
                 query,
                 room,
-                learnt: target.lit(gain, sil.colors[i], sil.normals[i]),
+                learnt: target.lit(gain, sil.colors[i], sil.normals[i], p, sil.depths[i]),
                 cover,
                 normal: sil.normals[i],
                 baseline: baseline as f64,

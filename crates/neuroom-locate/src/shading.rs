@@ -307,20 +307,8 @@ mod tests {
 
     /// Ray distances of a panorama taken at the centre of a 4 × 3 × 2.5 m box room (camera frame = world).
     fn box_room_depth(w: usize, h: usize) -> Vec<f32> {
-        let camera = Equirect {
-            width: w as u32,
-            height: h as u32,
-        };
         let half = Vec3::new(2.0, 1.5, 1.25);
-        (0..w * h)
-            .map(|i| {
-                let d = camera
-                    .direction(DVec2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5))
-                    .as_vec3();
-                let t = (half / d.abs()).min_element();
-                t.min(100.0)
-            })
-            .collect()
+        crate::test_rooms::box_room_depth(w, h, -half, half)
     }
 
     /// A `w × h` image whose pixel `i` has colour `colour(t)`, `t` a stripe pattern of period `period`.

@@ -20,13 +20,15 @@ use neuroom_fit::{FitConfig, IterationLog};
 use neuroom_identify::{DetectConfig, DetectorView, Network, NetworkDetector};
 pub use neuroom_locate::LocateStage;
 use neuroom_locate::evidence::{Detector, ResidualDetector, SearchView, colour_error};
-use neuroom_locate::local_light::{LocalLightConfig, RoomLight};
+pub use neuroom_locate::local_light::LocalLightConfig;
+use neuroom_locate::local_light::RoomLight;
 use neuroom_locate::localize::camera_correlation;
 use neuroom_locate::merge::merge_views;
 use neuroom_locate::objects::{
     Found, ObjectStanding, SearchConfig, SearchInput, arrangement_error, find_objects,
     object_standings,
 };
+use neuroom_locate::point_light::PointLight;
 use neuroom_locate::shading::{match_shading, panorama_normals};
 use neuroom_locate::{
     CameraEstimate, LocalizeConfig, PANORAMA_FROM_PINHOLE, SphereImage, localize, render_background,
@@ -501,6 +503,11 @@ pub fn locate_views(
         "camera_confidence".into(),
         located[0].camera.confidence.into(),
     );
+    if let Some(point) = (object_views[0].light.as_ref()).and_then(|l| l.point.as_ref()) {
+        arrangement
+            .extra
+            .insert("point_light".into(), point_light_json(point, &located[0]));
+    }
     let warnings: Vec<String> = views
         .iter()
         .zip(&located)
@@ -522,6 +529,20 @@ pub fn locate_views(
         .collect();
     arrangement.extra.insert("views".into(), listed.into());
     Ok((arrangement, located, object_views))
+}
+
+/// The point light fitted to a view ([`PointLight`]) in the world frame, as the arrangement states it:
+/// where it is and its gains over the captures' light (linear, per channel).
+fn point_light_json(point: &PointLight, located: &Located) -> serde_json::Value {
+    let pose = located.search_pose();
+    let position = pose.transform_point(point.position.as_dvec3());
+    let facing = (point.facing).map(|m| (pose.rotation * m.as_dvec3()).to_array());
+    serde_json::json!({
+        "position": position.to_array(),
+        "facing": facing,
+        "ambient": point.ambient,
+        "strength": point.strength,
+    })
 }
 
 /// Where [`locate_views`] is: the stage starting, as a share of all the planned stages of all views.
@@ -658,7 +679,11 @@ fn object_view(
                 config.match_shading,
                 local,
             );
-            empty = light.relight_room(&empty, &panorama_normals(&empty_depth, w, w / 2));
+            empty = light.relight_room(
+                &empty,
+                &empty_depth,
+                &panorama_normals(&empty_depth, w, w / 2),
+            );
             Some(light)
         }
         None if config.match_shading => {

@@ -95,6 +95,10 @@ struct LocateArgs {
     /// varies over the panorama (the ablation of that step).
     #[arg(long)]
     no_local_light: bool,
+    /// Relight the room and the objects also by a light at a point of the room, fitted under the
+    /// light field (off by default; see docs/object-search.md).
+    #[arg(long)]
+    point_light: bool,
     /// Sub-pixels per pixel along each axis when the object search splats a hypothesis (by default
     /// 1: whole pixels, each its nearest point's colour, rims half covered; n: each pixel the share of
     /// its n × n sub-pixels the object covers, with their mean colour).
@@ -357,7 +361,12 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
     let defaults = neuroom::locate::LocateConfig::default();
     let mut config = a.search.apply(neuroom::locate::LocateConfig {
         match_shading: !a.no_shading,
-        local_light: defaults.local_light.clone().filter(|_| !a.no_local_light),
+        local_light: (defaults.local_light.clone())
+            .filter(|_| !a.no_local_light)
+            .map(|l| neuroom::locate::LocalLightConfig {
+                point_light: a.point_light,
+                ..l
+            }),
         ..defaults
     });
     if let Some(n) = a.supersample {
