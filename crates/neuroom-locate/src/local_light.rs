@@ -102,20 +102,20 @@ impl RoomLight {
         }
     }
 
-    /// The sRGB colour `c` of an object's surface at `point` with unit normal `normal` (both camera
-    /// frame) where the field's gain is `field_gain` ([`LightField::gain`], or
+    /// The sRGB colour `c` of an object's surface at `point` (asked for only when a point light is
+    /// fitted) with unit normal `normal` (both camera frame) where the field's gain is `field_gain` ([`LightField::gain`], or
     /// [`LightField::gains_without`] the object's pixels), under this light (in linear light, clipped
     /// at white).
     pub fn relight_object(
         &self,
         field_gain: [f32; 3],
         c: [f32; 3],
-        point: Vec3,
+        point: impl FnOnce() -> Vec3,
         normal: Vec3,
     ) -> [f32; 3] {
         let s = self.shading.at(Some(normal));
         let p = match &self.point {
-            Some(light) => light.gain(point, normal),
+            Some(light) => light.gain(point(), normal),
             None => [1.0; 3],
         };
         under_gain(
@@ -278,7 +278,11 @@ pub fn fit_light_field(
                     / 3.0
             })
             .collect();
-        let Some(scale) = robust_scale(&deviation, &valid) else {
+        let valid_deviation = (deviation.iter().zip(&valid))
+            .filter(|(_, v)| **v)
+            .map(|(d, _)| *d)
+            .collect();
+        let Some(scale) = robust_scale(valid_deviation) else {
             break;
         };
         weight = (0..w * h)
@@ -300,19 +304,14 @@ pub fn fit_light_field(
 /// Smallest linear value a colour channel is taken at (a black pixel has no finite log).
 const TINY: f32 = 1e-4;
 
-/// Smallest scale of the robust weights (log ratio): a few per cent, the noise of a camera's and a
-/// JPEG's colours, so that a light the field fits exactly does not make every other pixel an outlier.
+/// Smallest scale of the robust weights (log ratio, or relative colour error): a few per cent, the
+/// noise of a camera's and a JPEG's colours, so that a light fitted exactly does not make every other
+/// pixel an outlier.
 const LEAST_SCALE: f32 = 0.05;
 
-/// 2.5 × the median of `deviation` over the `valid` pixels, at least [`LEAST_SCALE`]: the Cauchy
-/// weight's scale; `None` when no pixel is valid.
-fn robust_scale(deviation: &[f32], valid: &[bool]) -> Option<f32> {
-    let mut d: Vec<f32> = deviation
-        .iter()
-        .zip(valid)
-        .filter(|(_, v)| **v)
-        .map(|(d, _)| *d)
-        .collect();
+/// 2.5 × the median of the deviations `d`, at least [`LEAST_SCALE`]: the Cauchy weight's scale of the
+/// light's robust fits; `None` when there are none.
+pub(crate) fn robust_scale(mut d: Vec<f32>) -> Option<f32> {
     if d.is_empty() {
         return None;
     }
@@ -474,10 +473,18 @@ mod tests {
         assert!(mean_error < 0.01, "{mean_error}");
         let p = (h / 2) * w; // the centre column, on the horizon: the wall at x = 3
         let (normal, grey) = (Vec3::NEG_X, [0.4; 3]);
-        let wall =
-            light.relight_object(light.field.gain(p), grey, Vec3::new(3.0, 0.0, 0.0), normal);
-        let nearer =
-            light.relight_object(light.field.gain(p), grey, Vec3::new(2.6, 0.0, 0.0), normal);
+        let wall = light.relight_object(
+            light.field.gain(p),
+            grey,
+            || Vec3::new(3.0, 0.0, 0.0),
+            normal,
+        );
+        let nearer = light.relight_object(
+            light.field.gain(p),
+            grey,
+            || Vec3::new(2.6, 0.0, 0.0),
+            normal,
+        );
         assert!(nearer[0] > wall[0] + 0.02, "{nearer:?} against {wall:?}");
     }
 }

@@ -448,7 +448,7 @@ impl<F> Target<'_, F> {
         match (&self.view.light, field_gain) {
             (Some(light), Some(g)) => {
                 let n = self.camera.rotation.transpose() * normal.as_dvec3();
-                let point = self.view.direction(p) * depth;
+                let point = || self.view.direction(p) * depth;
                 Vec3::from(light.relight_object(g, c.to_array(), point, n.as_vec3()))
             }
             _ => c,

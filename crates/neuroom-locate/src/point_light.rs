@@ -9,12 +9,12 @@
 //! Where no point light explains the room better than one gain, the strength comes out near zero and
 //! the light is one gain everywhere.
 
-use glam::{DVec2, Vec3};
-use neuroom_core::camera::{CameraModel, Equirect};
+use glam::Vec3;
 use neuroom_core::image::{RgbImage, srgb_to_linear};
 use rayon::prelude::*;
 
-use crate::local_light::under_gain;
+use crate::local_light::{robust_scale, under_gain};
+use crate::shading::surface_points;
 use crate::sphere_image::CLIPPED;
 
 /// A point light relative to the captures' light: per channel, a gain everywhere plus the light of a
@@ -47,9 +47,6 @@ const FINEST_STEP: f32 = 0.01;
 
 /// Reweighting rounds of the robust fit.
 const ROUNDS: usize = 3;
-
-/// Smallest scale of the robust weights (relative colour error): the noise of a camera's colours.
-const LEAST_SCALE: f32 = 0.05;
 
 impl PointLight {
     /// A light that is one gain `g` everywhere.
@@ -153,24 +150,6 @@ fn irradiance(light: Vec3, facing: Option<Vec3>, point: Vec3, normal: Vec3) -> f
     emitted * normal.dot(v).max(0.0) / (d * near * near)
 }
 
-/// The surface point (camera frame) of every pixel of a `width × height` panorama of ray distances
-/// `depth`; `None` where it has none.
-pub fn surface_points(depth: &[f32], width: usize, height: usize) -> Vec<Option<Vec3>> {
-    let camera = Equirect {
-        width: width as u32,
-        height: height as u32,
-    };
-    (0..width * height)
-        .map(|p| {
-            let d = depth[p];
-            (d > 0.0).then(|| {
-                let pixel = DVec2::new((p % width) as f64 + 0.5, (p / width) as f64 + 0.5);
-                camera.direction(pixel).as_vec3() * d
-            })
-        })
-        .collect()
-}
-
 /// One pixel of the room a point light is fitted over.
 struct Sample {
     /// Surface point and normal (camera frame).
@@ -251,9 +230,10 @@ impl Samples {
     fn fit(&self, emitter: Emitter, dark_level: f32) -> RobustFit {
         let mut light = self.search(emitter, &self.trust, dark_level);
         let mut errors = self.errors(&light, dark_level);
-        let mut scale = LEAST_SCALE;
+        // Set in the first round: a fit has samples, so their deviations have a scale.
+        let mut scale = f32::INFINITY;
         for _ in 0..ROUNDS {
-            let Some(s) = robust_scale(&errors) else {
+            let Some(s) = robust_scale(errors.clone()) else {
                 break;
             };
             scale = s;
@@ -449,12 +429,12 @@ impl Sums {
             return only_a();
         }
         if a < 0.0 {
-            let b = (self.qe_phi / self.ee_phi2).max(0.0);
-            let candidates = [only_a(), (0.0, b)];
-            return if self.cost(0.0, b) < self.cost(candidates[0].0, 0.0) {
-                candidates[1]
+            let (a_only, b_only) = (only_a(), (0.0, (self.qe_phi / self.ee_phi2).max(0.0)));
+            let cost = |(a, b): (f64, f64)| self.cost(a, b);
+            return if cost(b_only) < cost(a_only) {
+                b_only
             } else {
-                candidates[0]
+                a_only
             };
         }
         (a, b)
@@ -467,17 +447,6 @@ impl Sums {
             + 2.0 * a * b * self.ee_phi
             + b * b * self.ee_phi2
     }
-}
-
-/// 2.5 × the median of `errors`, at least [`LEAST_SCALE`]; `None` when there are none.
-fn robust_scale(errors: &[f32]) -> Option<f32> {
-    if errors.is_empty() {
-        return None;
-    }
-    let mut e = errors.to_vec();
-    let mid = e.len() / 2;
-    let median = *e.select_nth_unstable_by(mid, f32::total_cmp).1;
-    Some((2.5 * median).max(LEAST_SCALE))
 }
 
 #[cfg(test)]

@@ -19,20 +19,29 @@ const ROUNDS: usize = 6;
 /// Ridge added to the normal equations, relative to their mean diagonal.
 const RIDGE: f64 = 1e-4;
 
-/// Unit surface normals (camera frame) of an equirectangular depth map of ray distances, from the
-/// neighbouring surface points; `None` where the pixel or a neighbour has no depth.
-pub fn panorama_normals(depth: &[f32], width: usize, height: usize) -> Vec<Option<Vec3>> {
+/// The surface point (camera frame) of every pixel of a `width × height` panorama of ray distances
+/// `depth`; `None` where it has none.
+pub fn surface_points(depth: &[f32], width: usize, height: usize) -> Vec<Option<Vec3>> {
     let camera = Equirect {
         width: width as u32,
         height: height as u32,
     };
-    let point = |u: usize, v: usize| -> Option<Vec3> {
-        let d = depth[v * width + u];
-        (d > 0.0).then(|| {
-            let dir = camera.direction(DVec2::new(u as f64 + 0.5, v as f64 + 0.5));
-            dir.as_vec3() * d
+    (0..width * height)
+        .map(|p| {
+            let d = depth[p];
+            (d > 0.0).then(|| {
+                let pixel = DVec2::new((p % width) as f64 + 0.5, (p / width) as f64 + 0.5);
+                camera.direction(pixel).as_vec3() * d
+            })
         })
-    };
+        .collect()
+}
+
+/// Unit surface normals (camera frame) of an equirectangular depth map of ray distances, from the
+/// neighbouring surface points; `None` where the pixel or a neighbour has no depth.
+pub fn panorama_normals(depth: &[f32], width: usize, height: usize) -> Vec<Option<Vec3>> {
+    let points = surface_points(depth, width, height);
+    let point = |u: usize, v: usize| points[v * width + u];
     (0..width * height)
         .map(|i| {
             let (u, v) = (i % width, i / width);
