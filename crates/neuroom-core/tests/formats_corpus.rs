@@ -238,6 +238,12 @@ fn every_malformed_file_is_rejected_with_file_field_and_reason() {
             "positive",
         ),
         (
+            "transforms_tracked_not_bool.json",
+            Capture,
+            Some("tracked_poses"),
+            "true or false",
+        ),
+        (
             "arrangement_duplicate_name.json",
             Arrangement,
             Some("objects[1].name"),

@@ -4,8 +4,8 @@ use glam::{DMat3, DVec3, EulerRot};
 use neuroom_core::Pose;
 use neuroom_core::camera::Pinhole;
 use neuroom_core::formats::{
-    ArrangedObject, Arrangement, BackgroundSpec, Capture, Conversion, Frame, Room, RoomObject,
-    check_same_size, read_arrangement, read_capture, read_depth, read_image_size,
+    ArrangedObject, Arrangement, BackgroundSpec, Capture, CaptureDevice, Conversion, Frame, Room,
+    RoomObject, check_same_size, read_arrangement, read_capture, read_depth, read_image_size,
     read_intrinsics_file, read_mask, read_rgb, read_rgba, read_room, write_arrangement,
     write_capture, write_depth, write_mask, write_rgb, write_rgba, write_room,
 };
@@ -149,6 +149,10 @@ fn capture_round_trip_with_per_frame_intrinsics_and_extras() {
         dir: dir.path().to_path_buf(),
         frames,
         depth_unit_scale_factor: 0.0005,
+        device: CaptureDevice {
+            auto_exposure: true,
+            tracked_poses: false,
+        },
         extra,
     };
     write_capture(dir.path(), &capture).unwrap();
@@ -164,6 +168,12 @@ fn capture_round_trip_with_per_frame_intrinsics_and_extras() {
 
     let back = read_capture(dir.path()).unwrap();
     assert_eq!(back.depth_unit_scale_factor, 0.0005);
+    assert_eq!(back.device, capture.device);
+    assert_eq!(v["auto_exposure"], json!(true));
+    assert!(
+        v.get("tracked_poses").is_none(),
+        "false is the default, not written"
+    );
     assert_eq!(back.extra, capture.extra);
     for (a, b) in back.frames.iter().zip(&capture.frames) {
         assert_pose_close(&a.camera_to_world, &b.camera_to_world);

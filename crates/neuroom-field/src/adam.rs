@@ -55,10 +55,7 @@ impl Adam {
     /// A group with rate 0 is left untouched (frozen), moments included.
     pub fn step(&mut self, params: &mut Params<f32>, grads: &Params<f32>, lr: &[f32; NUM_GROUPS]) {
         self.step += 1;
-        let AdamConfig { beta1, beta2, eps } = self.config;
-        let t = self.step as i32;
-        let c1 = 1.0 / (1.0 - beta1.powi(t));
-        let c2 = 1.0 / (1.0 - beta2.powi(t));
+        let update = AdamUpdate::at(self.config, self.step);
         for (g, &rate) in lr.iter().enumerate() {
             if rate == 0.0 {
                 continue;
@@ -68,13 +65,47 @@ impl Adam {
                 .zip(grads.groups[g].par_chunks(1 << 14))
                 .zip(self.m.groups[g].par_chunks_mut(1 << 14))
                 .zip(self.v.groups[g].par_chunks_mut(1 << 14))
-                .for_each(|(((p, gr), m), v)| {
-                    for i in 0..p.len() {
-                        m[i] = beta1 * m[i] + (1.0 - beta1) * gr[i];
-                        v[i] = beta2 * v[i] + (1.0 - beta2) * gr[i] * gr[i];
-                        p[i] -= rate * (m[i] * c1) / ((v[i] * c2).sqrt() + eps);
-                    }
-                });
+                .for_each(|(((p, gr), m), v)| update.apply(rate, p, gr, m, v));
+        }
+    }
+}
+
+/// One Adam step's update rule: the hyper-parameters with the bias corrections of step `t`. Shared by
+/// [`Adam`] and the small parameter sets optimised beside a field (per-frame corrections).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdamUpdate {
+    config: AdamConfig,
+    /// `1 / (1 − β₁ᵗ)`.
+    c1: f32,
+    /// `1 / (1 − β₂ᵗ)`.
+    c2: f32,
+}
+
+impl AdamUpdate {
+    /// The update of step `step` (1-based: the first step is 1).
+    pub fn at(config: AdamConfig, step: u64) -> Self {
+        let t = step.min(i32::MAX as u64) as i32;
+        Self {
+            config,
+            c1: 1.0 / (1.0 - config.beta1.powi(t)),
+            c2: 1.0 / (1.0 - config.beta2.powi(t)),
+        }
+    }
+
+    /// Updates the moments `m`, `v` with the gradient `grads` and moves `params` at rate `rate`.
+    pub fn apply(
+        &self,
+        rate: f32,
+        params: &mut [f32],
+        grads: &[f32],
+        m: &mut [f32],
+        v: &mut [f32],
+    ) {
+        let AdamConfig { beta1, beta2, eps } = self.config;
+        for i in 0..params.len() {
+            m[i] = beta1 * m[i] + (1.0 - beta1) * grads[i];
+            v[i] = beta2 * v[i] + (1.0 - beta2) * grads[i] * grads[i];
+            params[i] -= rate * (m[i] * self.c1) / ((v[i] * self.c2).sqrt() + eps);
         }
     }
 }

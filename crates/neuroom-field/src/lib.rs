@@ -27,7 +27,7 @@ pub mod real;
 pub mod rng;
 pub mod sh;
 
-pub use adam::{Adam, AdamConfig, Schedule};
+pub use adam::{Adam, AdamConfig, AdamUpdate, Schedule};
 pub use batch::Tape;
 pub use field::{AnalyticColor, AnalyticField, Field, FieldOutput, Query};
 pub use neus::{CHUNK, CodeSet, Codes, GeometricInit, NeusConfig, NeusField, Outputs, Workspace};

@@ -12,7 +12,7 @@ use glam::DVec3;
 use neuroom_core::Pose;
 use neuroom_core::camera::{Camera, Equirect, Pinhole, look_at};
 use neuroom_core::formats::{
-    ArrangedObject, Arrangement, BackgroundSpec, Capture, Frame, Room, RoomObject,
+    ArrangedObject, Arrangement, BackgroundSpec, Capture, CaptureDevice, Frame, Room, RoomObject,
     write_arrangement, write_capture, write_depth, write_mask, write_rgb, write_rgba, write_room,
 };
 use neuroom_core::image::RgbImage;
@@ -252,6 +252,7 @@ fn capture_with_lighting(dir: &Path, frames: Vec<Frame>, lighting: &Lighting) ->
         dir: dir.to_path_buf(),
         frames,
         depth_unit_scale_factor: DEPTH_UNIT,
+        device: CaptureDevice::default(),
         extra,
     }
 }

@@ -114,6 +114,57 @@ pub struct TrainConfig {
     /// The surface object models start from.
     #[serde(default)]
     pub object_start: ObjectStart,
+    /// Per-frame colour gains and pose corrections learned with the field (phone captures). Left out of
+    /// the serialised form while it is the default, so configurations written before it keep their
+    /// bytes (the validation suite's model cache is keyed by them).
+    #[serde(default, skip_serializing_if = "FrameRefinement::is_default")]
+    pub frame_refinement: FrameRefinement,
+}
+
+/// Which frame corrections a model learns.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RefineWhen {
+    /// What the capture says its camera did (`auto_exposure`, `tracked_poses` in transforms.json).
+    #[default]
+    FromCapture,
+    /// Both, whatever the capture says.
+    Always,
+    /// Neither: every frame as the capture gives it.
+    Never,
+}
+
+/// How per-frame corrections are learned ([`crate::frame_corrections`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameRefinement {
+    /// Which corrections are learned.
+    pub when: RefineWhen,
+    /// Adam's rate of the pose corrections (radians and metres).
+    pub pose_lr: f32,
+    /// Adam's rate of the log colour gains.
+    pub gain_lr: f32,
+    /// Fraction of the run before the poses move: the first steps shape the surfaces the poses are
+    /// aligned to, and a pose moved against a field that is not there yet only follows noise.
+    pub pose_start: f32,
+}
+
+impl Default for FrameRefinement {
+    /// Poses at 1e-3 (a millimetre or a milliradian per step at most, so a tracker's centimetres are
+    /// crossed in tens of steps), gains at 5e-3, poses from a tenth of the run on.
+    fn default() -> Self {
+        Self {
+            when: RefineWhen::FromCapture,
+            pose_lr: 1e-3,
+            gain_lr: 5e-3,
+            pose_start: 0.1,
+        }
+    }
+}
+
+impl FrameRefinement {
+    /// Whether this is the default (then it is not serialised).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
 }
 
 impl Default for TrainConfig {
@@ -172,6 +223,7 @@ impl Default for TrainConfig {
             threads: 0,
             budget_clock: BudgetClock::Wall,
             object_start: ObjectStart::Box,
+            frame_refinement: FrameRefinement::default(),
         }
     }
 }

@@ -17,7 +17,7 @@
 use crate::normals::normals_from_depth;
 use glam::{DVec2, Vec3};
 use neuroom_core::camera::{CameraModel, Pinhole};
-use neuroom_core::formats::{Capture, Frame, read_depth, read_mask, read_rgba};
+use neuroom_core::formats::{Capture, CaptureDevice, Frame, read_depth, read_mask, read_rgba};
 use neuroom_core::{FormatError, Pose};
 use rayon::prelude::*;
 
@@ -221,6 +221,8 @@ pub struct Dataset {
     pub light_names: Vec<String>,
     /// Bounds of the back-projected surface points and camera centres of all frames (model frame).
     pub observed: Aabb,
+    /// What the capture's camera did on its own (auto-exposure, tracked poses).
+    pub device: CaptureDevice,
 }
 
 /// Options of [`Dataset::load`].
@@ -251,6 +253,7 @@ impl Dataset {
             held_out: Vec::new(),
             light_names,
             observed,
+            device: capture.device,
         };
         for view in views {
             if options.holdout > 0 && view.index % options.holdout == 0 {

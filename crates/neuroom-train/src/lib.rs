@@ -5,6 +5,7 @@
 //! - [`losses`]: colour, depth, mask, SDF-from-depth terms; [`trainer`]: the loop of one model, resumable.
 //! - [`augment`] + [`lighting`]: HDR lighting augmentation and light codes.
 //! - [`room`]: `train_room` and the model directory of a room with its reader.
+//! - [`frame_corrections`]: per-frame colour gains and pose corrections (phone captures).
 //! - [`eval`]: held-out PSNR, depth error, Chamfer, light-code check; [`mod@bench`]: timed runs with reports.
 
 pub mod augment;
@@ -12,6 +13,7 @@ pub mod bench;
 pub mod config;
 pub mod dataset;
 pub mod eval;
+pub mod frame_corrections;
 pub mod lighting;
 pub mod losses;
 pub mod normals;

@@ -16,6 +16,7 @@ use crate::augment::Augmentation;
 use crate::config::TrainConfig;
 use crate::dataset::{Aabb, Dataset, LoadOptions, Role};
 use crate::eval::{EvalReport, evaluate, extract_mesh};
+use crate::frame_corrections::CorrectionSummary;
 use crate::losses::LossParts;
 use crate::progress::Progress;
 use crate::trainer::{LightCodes, ModelKind, Trainer, field_config};
@@ -181,6 +182,9 @@ pub struct ModelStats {
     /// Steps skipped because their loss or gradient was not finite or exploded.
     #[serde(default)]
     pub faulty_steps: u64,
+    /// How far the per-frame colour gains and pose corrections went (captures from a phone).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_corrections: Option<CorrectionSummary>,
 }
 
 /// One model in the manifest.
@@ -448,6 +452,7 @@ pub fn train_model(
             eval,
             chamfer_m,
             faulty_steps: trainer.state.health.faults,
+            frame_corrections: trainer.frame_corrections(),
         },
     };
     let mut meta = trainer.trainer_json();

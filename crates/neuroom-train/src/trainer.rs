@@ -12,8 +12,9 @@
 //! the generator, Adam's moments and the fitted step count, and resuming continues bit for bit.
 
 use crate::augment::Augmentation;
-use crate::config::{BudgetClock, ModelBudget, ObjectStart, START_INSET, TrainConfig};
+use crate::config::{BudgetClock, ModelBudget, ObjectStart, RefineWhen, START_INSET, TrainConfig};
 use crate::dataset::{Aabb, Dataset};
+use crate::frame_corrections::{Corrected, CorrectionSummary, FrameCorrections};
 use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sample_zone, sdf_loss};
 use crate::progress::Progress;
 use crate::rng::Pcg32;
@@ -156,6 +157,10 @@ struct Batch {
     d_sdf: Vec<f32>,
     d_rgb: Vec<f32>,
     eikonal: Vec<[f32; 3]>,
+    /// Training frame of each ray.
+    ray_frame: Vec<u32>,
+    /// `∂loss/∂x` of the surface rays' samples, when poses are refined.
+    d_points: Vec<[f32; 3]>,
 }
 
 /// Trains one model on one dataset.
@@ -172,6 +177,8 @@ pub struct Trainer<'a> {
     /// Step, generator and timing.
     pub state: TrainState,
     lights: LightCodes,
+    /// Per-frame colour gains and pose corrections, when the capture needs them.
+    frames: Option<FrameCorrections>,
     bounds: Aabb,
     diag: f32,
     surface_rays: Vec<u32>,
@@ -210,6 +217,7 @@ impl<'a> Trainer<'a> {
         );
         let field = NeusField::new(fc);
         let adam = Adam::new(AdamConfig::default(), &field.params);
+        let frames = corrections_for(data, config);
         let state = TrainState {
             step: 0,
             total_steps: budget.steps,
@@ -219,7 +227,17 @@ impl<'a> Trainer<'a> {
             health: Health::default(),
             profile: StepProfile::default(),
         };
-        Self::assemble(data, augmentation, config, kind, field, adam, state, lights)
+        Self::assemble(
+            data,
+            augmentation,
+            config,
+            kind,
+            field,
+            adam,
+            state,
+            lights,
+            frames,
+        )
     }
 
     /// Continues the run saved in checkpoint folder `dir` (see [`Trainer::save`]).
@@ -240,6 +258,21 @@ impl<'a> Trainer<'a> {
         let state: TrainState = serde_json::from_value(meta.trainer["state"].clone())
             .map_err(|e| bad(format!("trainer.state: {e}")))?;
         let lights = light_codes(data, augmentation);
+        let frames = match meta.trainer.get("frames").filter(|v| !v.is_null()) {
+            Some(v) => Some(
+                serde_json::from_value::<FrameCorrections>(v.clone())
+                    .map_err(|e| bad(format!("trainer.frames: {e}")))?
+                    .restored(),
+            ),
+            None => corrections_for(data, config),
+        };
+        if let Some(f) = frames.as_ref().filter(|f| f.frames() != data.origins.len()) {
+            return Err(bad(format!(
+                "corrections of {} frames, this capture has {}",
+                f.frames(),
+                data.origins.len()
+            )));
+        }
         if field.config().light_codes != lights.names.len().max(1) {
             return Err(bad(format!(
                 "{} light codes, this run has {}",
@@ -256,6 +289,7 @@ impl<'a> Trainer<'a> {
             adam,
             state,
             lights,
+            frames,
         ))
     }
 
@@ -269,6 +303,7 @@ impl<'a> Trainer<'a> {
         adam: Adam,
         state: TrainState,
         lights: LightCodes,
+        frames: Option<FrameCorrections>,
     ) -> Self {
         let fc = field.config();
         let bounds = Aabb {
@@ -297,6 +332,7 @@ impl<'a> Trainer<'a> {
             grads,
             state,
             lights,
+            frames,
             bounds,
             diag,
             surface_rays,
@@ -312,6 +348,16 @@ impl<'a> Trainer<'a> {
     /// The light codes of this model.
     pub fn light_codes(&self) -> &LightCodes {
         &self.lights
+    }
+
+    /// The per-frame corrections being learned, when the capture needs them.
+    pub fn corrections(&self) -> Option<&FrameCorrections> {
+        self.frames.as_ref()
+    }
+
+    /// How far the per-frame corrections went, when the capture needs them.
+    pub fn frame_corrections(&self) -> Option<CorrectionSummary> {
+        self.frames.as_ref().map(FrameCorrections::summary)
     }
 
     /// Whether the run has reached its step count or its time budget.
@@ -352,6 +398,17 @@ impl<'a> Trainer<'a> {
             let factor = self.schedule().factor(self.state.step) * self.state.health.lr_scale;
             let lr: [f32; NUM_GROUPS] = self.config.learning_rates.map(|r| r * factor);
             self.adam.step(&mut self.field.params, &self.grads, &lr);
+            let refine = self.config.frame_refinement;
+            let pose_lr = if self.poses_move() {
+                refine.pose_lr * factor
+            } else {
+                0.0
+            };
+            if let Some(frames) = &mut self.frames {
+                frames.step(pose_lr, refine.gain_lr * factor);
+            }
+        } else if let Some(frames) = &mut self.frames {
+            frames.clear_grads();
         }
         self.grads.fill_zero();
         prof.adam += lap.next();
@@ -399,9 +456,11 @@ impl<'a> Trainer<'a> {
         self.empty_tape.copy_sdf(&mut b.sdf[f..]);
     }
 
-    /// Field backward pass of the batch (both parts) and of the sharpness.
+    /// Field backward pass of the batch (both parts) and of the sharpness; with moving poses, also the
+    /// gradient of every frame's pose correction.
     fn backward(&mut self, d_inv_s: f32) {
-        let b = &self.batch;
+        let poses_move = self.poses_move();
+        let b = &mut self.batch;
         let (n, f) = (b.points.len(), b.full);
         let codes = CodeSet {
             appearance: Codes::PerPoint(&b.appearance),
@@ -409,13 +468,17 @@ impl<'a> Trainer<'a> {
             object: Codes::Fixed(0),
         };
         let grads = &mut self.grads;
+        b.d_points.clear();
+        if poses_move {
+            b.d_points.resize(f, [0.0; 3]);
+        }
         self.field.backward(
             &codes.slice(0, f),
             &mut self.tape,
             &b.d_sdf[..f],
             Some(&b.d_rgb[..3 * f]),
             grads,
-            None,
+            poses_move.then_some(&mut b.d_points[..]),
         );
         self.field.backward(
             &codes.slice(f, n),
@@ -426,6 +489,20 @@ impl<'a> Trainer<'a> {
             None,
         );
         self.field.backward_inv_s(d_inv_s, grads);
+        if let Some(frames) = self.frames.as_mut().filter(|_| poses_move) {
+            add_pose_grads(&self.batch, frames);
+        }
+    }
+
+    /// Whether the poses are refined at this step: the capture's poses are tracked and the first
+    /// [`crate::config::FrameRefinement::pose_start`] of the run is over.
+    fn poses_move(&self) -> bool {
+        let refine = self.config.frame_refinement;
+        let start =
+            (refine.pose_start.clamp(0.0, 1.0) as f64 * self.state.total_steps as f64) as u64;
+        self.frames.as_ref().is_some_and(|f| f.corrected.pose)
+            && refine.pose_lr > 0.0
+            && self.state.step >= start
     }
 
     fn schedule(&self) -> Schedule {
@@ -461,6 +538,7 @@ impl<'a> Trainer<'a> {
             v.clear();
         }
         b.offsets.clear();
+        b.ray_frame.clear();
         b.points.clear();
         b.dirs.clear();
         b.appearance.clear();
@@ -495,7 +573,14 @@ impl<'a> Trainer<'a> {
                 &self.surface_rays
             };
             let i = pool[rng.below(pool.len() as u32) as usize] as usize;
-            let (o, d) = (self.data.origin(i), Vec3::from(rays.dir[i]));
+            let frame = rays.frame[i] as usize;
+            let (o, d) = match self.frames.as_ref().filter(|f| f.corrected.pose) {
+                Some(f) => (
+                    f.origin(frame, self.data.origin(i)),
+                    f.direction(frame, Vec3::from(rays.dir[i])),
+                ),
+                None => (self.data.origin(i), Vec3::from(rays.dir[i])),
+            };
             let Some((near, far)) = self.bounds.intersect(o, d) else {
                 continue;
             };
@@ -536,7 +621,6 @@ impl<'a> Trainer<'a> {
                     &mut samples,
                 ),
             }
-            let frame = rays.frame[i] as usize;
             let mut light = self.data.frame_light[frame] as u32;
             let mut rgb = rays.color(i);
             if !pick_empty
@@ -563,6 +647,7 @@ impl<'a> Trainer<'a> {
                     .push(sample_zone(t, distance, pick_empty, cos, band));
             }
             b.offsets.push(b.t.len());
+            b.ray_frame.push(frame as u32);
             b.targets.push(RayTarget {
                 rgb: (!pick_empty).then_some(rgb),
                 distance: distance.filter(|_| !pick_empty),
@@ -598,18 +683,28 @@ impl<'a> Trainer<'a> {
         let inv_s = self.field.inv_s();
         let mut parts = LossParts::default();
         let mut d_inv_s = 0.0;
+        let mut frames = self.frames.as_mut().filter(|f| f.corrected.colour);
         let (rgb3, _) = b.rgb.as_chunks::<3>();
         let (d_rgb3, _) = b.d_rgb.as_chunks_mut::<3>();
         for (r, target) in b.targets.iter().enumerate() {
             let (s, e) = (b.offsets[r], b.offsets[r + 1]);
-            let out = render_ray(
+            let mut out = render_ray(
                 &b.t[s..e],
                 &b.sdf[s..e],
                 &rgb3[s..e],
                 inv_s,
                 &mut self.ray_tape,
             );
-            let (p, g) = ray_loss(&out, target, &scales);
+            let frame = b.ray_frame[r] as usize;
+            let gain = frames.as_ref().map(|f| f.gain(frame));
+            if let Some(gain) = gain {
+                out.rgb = std::array::from_fn(|k| gain[k] * out.rgb[k]);
+            }
+            let (p, mut g) = ray_loss(&out, target, &scales);
+            if let (Some(gain), Some(frames)) = (gain, frames.as_deref_mut()) {
+                frames.add_colour_grad(frame, out.rgb, g.rgb);
+                g.rgb = std::array::from_fn(|k| gain[k] * g.rgb[k]);
+            }
             parts.color += p[0];
             parts.depth += p[1];
             parts.mask += p[2];
@@ -705,6 +800,7 @@ impl<'a> Trainer<'a> {
             "state": self.state,
             "light_codes": self.lights,
             "kind": self.kind,
+            "frames": self.frames,
         })
     }
 }
@@ -726,6 +822,42 @@ fn budget_of(config: &TrainConfig, kind: ModelKind) -> &ModelBudget {
     match kind {
         ModelKind::Object => &config.object,
         ModelKind::Background => &config.background,
+    }
+}
+
+/// The per-frame corrections a model of `data` learns under `config` (none for a capture from a rig).
+fn corrections_for(data: &Dataset, config: &TrainConfig) -> Option<FrameCorrections> {
+    let device = data.device;
+    let corrected = match config.frame_refinement.when {
+        RefineWhen::FromCapture => Corrected {
+            colour: device.auto_exposure,
+            pose: device.tracked_poses,
+        },
+        RefineWhen::Always => Corrected {
+            colour: true,
+            pose: true,
+        },
+        RefineWhen::Never => return None,
+    };
+    (corrected.colour || corrected.pose)
+        .then(|| FrameCorrections::new(data.origins.len(), corrected))
+}
+
+/// Adds every surface sample's position gradient (`batch.d_points`) to its frame's pose correction.
+fn add_pose_grads(batch: &Batch, frames: &mut FrameCorrections) {
+    for (r, &frame) in batch.ray_frame.iter().enumerate() {
+        let (s, e) = (batch.offsets[r], batch.offsets[r + 1]);
+        if e > batch.d_points.len() {
+            break;
+        }
+        for i in s..e {
+            frames.add_sample_grad(
+                frame as usize,
+                batch.t[i],
+                Vec3::from(batch.dirs[i]),
+                Vec3::from(batch.d_points[i]),
+            );
+        }
     }
 }
 
@@ -786,8 +918,18 @@ impl Trainer<'_> {
                 self.state.health.lr_scale
             ),
         };
+        let corrections = match self.frame_corrections() {
+            Some(c) => format!(
+                ", frames corrected by up to {:.1} cm / {:.2}°, gains {:.2}–{:.2}",
+                100.0 * c.max_translation_m,
+                c.max_rotation_deg,
+                c.gain_range[0],
+                c.gain_range[1]
+            ),
+            None => String::new(),
+        };
         progress.finish(&format!(
-            "{} steps in {:.0} s, loss {:.4}, batch PSNR {:.2} dB, inv_s {:.0}{faults}",
+            "{} steps in {:.0} s, loss {:.4}, batch PSNR {:.2} dB, inv_s {:.0}{corrections}{faults}",
             self.state.step,
             self.state.elapsed_s,
             last.total(),

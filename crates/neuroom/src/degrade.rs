@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use neuroom_core::formats::{self, Capture, Frame};
+use neuroom_core::formats::{self, Capture, CaptureDevice, Frame};
 use neuroom_synth::phone::PhoneModel;
 
 use crate::staging::StagedFolder;
@@ -64,6 +64,10 @@ pub fn degrade_room(
         let degraded = Capture {
             dir: dir.clone(),
             frames,
+            device: CaptureDevice {
+                auto_exposure: true,
+                tracked_poses: true,
+            },
             ..capture.clone()
         };
         formats::write_capture(&dir, &degraded)?;

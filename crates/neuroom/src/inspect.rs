@@ -74,6 +74,10 @@ pub struct CaptureReport {
     pub depth_coverage: f64,
     /// Fraction of mask pixels on an object (a nonzero id), over frames with masks.
     pub mask_coverage: f64,
+    /// The camera exposed every frame itself (training learns a colour gain per frame).
+    pub auto_exposure: bool,
+    /// The poses were tracked (training refines them).
+    pub tracked_poses: bool,
 }
 
 /// One test panorama.
@@ -295,6 +299,8 @@ fn inspect_capture(
             0 => 0.0,
             n => masked.iter().sum::<f64>() / n as f64,
         },
+        auto_exposure: capture.device.auto_exposure,
+        tracked_poses: capture.device.tracked_poses,
     })
 }
 
@@ -572,7 +578,18 @@ impl std::fmt::Display for CaptureReport {
             self.with_mask,
             self.mask_coverage * 100.0,
             self.instance_ids
-        )
+        )?;
+        let device: Vec<&str> = [
+            (self.auto_exposure, "auto-exposed"),
+            (self.tracked_poses, "tracked poses"),
+        ]
+        .iter()
+        .filter_map(|&(on, what)| on.then_some(what))
+        .collect();
+        if !device.is_empty() {
+            write!(f, ", {}", device.join(", "))?;
+        }
+        Ok(())
     }
 }
 

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::locate::{LocateConfig, LocateMean, PanoramaScore, bench_locate};
-use crate::train::{TrainOptions, TrainProgress, train_room};
+use crate::train::{RefineWhen, TrainOptions, TrainProgress, train_room};
 use neuroom_core::camera_effects::CameraEffect;
 use neuroom_fit::FitConfig;
 
@@ -29,6 +29,8 @@ pub struct SuiteTraining {
     pub seed: u64,
     /// Worker threads (0 = all cores); bit-identical models need the same count.
     pub threads: usize,
+    /// Which per-frame corrections the models learn.
+    pub frame_corrections: RefineWhen,
 }
 
 impl Default for SuiteTraining {
@@ -39,6 +41,7 @@ impl Default for SuiteTraining {
             background_steps: 3000,
             seed: 1,
             threads: 0,
+            frame_corrections: RefineWhen::FromCapture,
         }
     }
 }
@@ -48,7 +51,10 @@ impl SuiteTraining {
     /// measures the default detector).
     pub fn options(&self) -> TrainOptions {
         let (objects, background) = (self.object_steps, self.background_steps);
-        TrainOptions::steps_only(objects, background, self.seed, self.threads)
+        TrainOptions {
+            frame_corrections: self.frame_corrections,
+            ..TrainOptions::steps_only(objects, background, self.seed, self.threads)
+        }
     }
 }
 

@@ -3,6 +3,7 @@
 use std::path::Path;
 
 use neuroom_identify::TrainSettings;
+pub use neuroom_train::config::RefineWhen;
 
 pub use neuroom_train::losses::LossParts;
 pub use neuroom_train::progress::{
@@ -35,6 +36,8 @@ pub struct TrainOptions {
     /// Each model is an independent job: the manifest lists every model finished so far, whichever
     /// call finished it, and is complete once all are there.
     pub only: Vec<String>,
+    /// Which per-frame corrections (colour gains, poses) the models learn.
+    pub frame_corrections: RefineWhen,
 }
 
 impl TrainOptions {
@@ -80,6 +83,7 @@ impl TrainOptions {
         if self.cpu_clock {
             c.budget_clock = neuroom_train::BudgetClock::Cpu;
         }
+        c.frame_refinement.when = self.frame_corrections;
         c
     }
 }

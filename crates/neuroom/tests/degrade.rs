@@ -41,6 +41,9 @@ fn a_phone_degraded_room_is_a_room_with_the_same_truth() {
     let capture = |root: &Path| read_capture(root.join(&room.background.capture)).unwrap();
     let (exact, phone) = (capture(&tiny_room()), capture(&a));
     assert_eq!(phone.frames.len(), exact.frames.len());
+    // The copy says what a phone does, so training corrects its frames.
+    assert!(phone.device.auto_exposure && phone.device.tracked_poses);
+    assert!(!exact.device.auto_exposure && !exact.device.tracked_poses);
     for (p, e) in phone.frames.iter().zip(&exact.frames) {
         let cm = (p.camera_to_world.translation - e.camera_to_world.translation).length() * 100.0;
         assert!((0.99..=2.01).contains(&cm), "{cm} cm");

@@ -8,6 +8,8 @@ use neuroom::locate::LocateConfig;
 use neuroom::suite::SuiteTraining;
 use neuroom::train::TrainBar;
 
+use super::frame_corrections_arg::FrameCorrectionsArg;
+
 use super::bench_suite::describe_mean;
 
 /// The arguments of `bench phone`.
@@ -30,6 +32,10 @@ pub struct PhoneArgs {
     /// Seed of the degradation.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Per-frame corrections of both trainings: `capture` (the phone copy's captures ask for them,
+    /// the room's do not), `always` or `never`.
+    #[arg(long, value_enum, default_value_t)]
+    frame_corrections: FrameCorrectionsArg,
     /// Also print the report as one JSON object.
     #[arg(long)]
     json: bool,
@@ -55,6 +61,7 @@ pub fn run(a: &PhoneArgs) -> anyhow::Result<()> {
             object_steps: a.object_steps,
             background_steps: a.background_steps,
             threads: a.threads,
+            frame_corrections: a.frame_corrections.into(),
             ..SuiteTraining::default()
         },
         seed: a.seed,

@@ -11,6 +11,7 @@ pub mod edit;
 pub mod eval;
 pub mod export;
 pub mod fit;
+mod frame_corrections_arg;
 pub mod import;
 pub mod info;
 pub mod locate;

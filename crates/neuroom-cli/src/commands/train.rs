@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use super::frame_corrections_arg::FrameCorrectionsArg;
 use neuroom::train::{TrainBar, TrainOptions};
 
 /// Learn the neural models of a room (background and every object) from its captures.
@@ -50,6 +51,10 @@ pub struct Args {
     /// the same folder, and the manifest is complete once every model is there.
     #[arg(long = "only", value_name = "MODEL")]
     only: Vec<String>,
+    /// Learn a colour gain and a pose correction per frame: `capture` where the capture says its
+    /// camera auto-exposed or tracked its poses (a phone's), `always`, or `never`.
+    #[arg(long, value_enum, default_value_t)]
+    frame_corrections: FrameCorrectionsArg,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -67,6 +72,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         cpu_clock: args.cpu_clock,
         identify_seconds: args.identify_seconds,
         only: args.only,
+        frame_corrections: args.frame_corrections.into(),
     };
     let summary =
         neuroom::train::train_room(&args.room, &args.out, &options, &TrainBar::default())?;

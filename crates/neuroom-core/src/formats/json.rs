@@ -197,6 +197,11 @@ pub fn as_str(v: &Value) -> Result<&str, String> {
     v.as_str().ok_or_else(|| expected("a string", v))
 }
 
+/// A boolean.
+pub fn as_bool(v: &Value) -> Result<bool, String> {
+    v.as_bool().ok_or_else(|| expected("true or false", v))
+}
+
 /// A non-empty string.
 pub fn as_nonempty_str(v: &Value) -> Result<&str, String> {
     as_str(v).and_then(|s| {

@@ -26,8 +26,8 @@ pub use images::{
 pub use room::{BackgroundSpec, Room, RoomObject, parse_room, read_room, write_room};
 pub use tensor_file::canonical_safetensors;
 pub use transforms::{
-    Capture, Frame, parse_capture, parse_intrinsics, read_capture, read_intrinsics_file,
-    write_capture,
+    Capture, CaptureDevice, Frame, parse_capture, parse_intrinsics, read_capture,
+    read_intrinsics_file, write_capture,
 };
 
 use crate::error::{FormatError, FormatResult};

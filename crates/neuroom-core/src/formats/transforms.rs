@@ -4,7 +4,7 @@
 //! `OPENCV` (k1, k2, p1, p2) and `PINHOLE` camera models exist here; `camera_model` may also be absent.
 
 use super::json::{
-    JsonObject, as_integer_in, as_nonempty_str, as_number, as_pose, as_positive, as_str,
+    JsonObject, as_bool, as_integer_in, as_nonempty_str, as_number, as_pose, as_positive, as_str,
     is_positive, number_value, parse_json, pose_value, write_json,
 };
 use super::room::path_string;
@@ -45,8 +45,22 @@ pub struct Capture {
     pub frames: Vec<Frame>,
     /// Metres per depth PNG unit.
     pub depth_unit_scale_factor: f64,
+    /// What the camera did on its own while capturing (auto-exposure, tracked poses).
+    pub device: CaptureDevice,
     /// Top-level fields this reader does not know (e.g. `lighting`), written back unchanged.
     pub extra: Map<String, Value>,
+}
+
+/// What a capture's camera did on its own, which training learns to undo per frame. A rendered or
+/// tripod capture has neither; a phone app's recording has both.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CaptureDevice {
+    /// The camera exposed and white-balanced every frame itself (`auto_exposure`): colours differ
+    /// between frames by a gain per channel.
+    pub auto_exposure: bool,
+    /// The poses were tracked or reconstructed (`tracked_poses`: visual-inertial odometry, COLMAP),
+    /// so they are off by the tracker's drift.
+    pub tracked_poses: bool,
 }
 
 /// One view of a capture.
@@ -99,7 +113,13 @@ pub fn parse_capture(file: &Path, bytes: &[u8]) -> FormatResult<Capture> {
     if frames.is_empty() {
         return Err(top.error("frames", "a capture needs at least one frame"));
     }
-    let mut known: Vec<&str> = vec!["frames", "depth_unit_scale_factor", "camera_model"];
+    let mut known: Vec<&str> = vec![
+        "frames",
+        "depth_unit_scale_factor",
+        "camera_model",
+        "auto_exposure",
+        "tracked_poses",
+    ];
     known.extend(INTRINSIC_KEYS.iter().chain(&UNSUPPORTED_DISTORTION));
     Ok(Capture {
         dir: file.parent().map(Path::to_path_buf).unwrap_or_default(),
@@ -110,6 +130,10 @@ pub fn parse_capture(file: &Path, bytes: &[u8]) -> FormatResult<Capture> {
         depth_unit_scale_factor: top
             .optional("depth_unit_scale_factor", as_positive)?
             .unwrap_or(DEFAULT_DEPTH_UNIT),
+        device: CaptureDevice {
+            auto_exposure: top.optional("auto_exposure", as_bool)?.unwrap_or(false),
+            tracked_poses: top.optional("tracked_poses", as_bool)?.unwrap_or(false),
+        },
         extra: top.unknown_fields(&known),
     })
 }
@@ -279,6 +303,15 @@ pub fn write_capture(dir: impl AsRef<Path>, capture: &Capture) -> FormatResult<(
         .map(|(i, f)| frame_value(&file, i, f, &first.camera))
         .collect::<FormatResult<Vec<_>>>()?;
     top.insert("frames".into(), frames.into());
+    let device = capture.device;
+    for (key, on) in [
+        ("auto_exposure", device.auto_exposure),
+        ("tracked_poses", device.tracked_poses),
+    ] {
+        if on {
+            top.insert(key.into(), true.into());
+        }
+    }
     for (k, v) in &capture.extra {
         top.entry(k.clone()).or_insert_with(|| v.clone());
     }

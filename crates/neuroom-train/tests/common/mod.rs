@@ -7,8 +7,8 @@ use glam::{DMat3, DVec2, DVec3, Vec3};
 use neuroom_core::Pose;
 use neuroom_core::camera::{CameraModel, Pinhole};
 use neuroom_core::formats::{
-    BackgroundSpec, Capture, Frame, Room, RoomObject, write_capture, write_depth, write_mask,
-    write_rgba, write_room,
+    BackgroundSpec, Capture, CaptureDevice, Frame, Room, RoomObject, write_capture, write_depth,
+    write_mask, write_rgba, write_room,
 };
 use neuroom_core::image::Image;
 use neuroom_field::{AnalyticColor, AnalyticField};
@@ -110,6 +110,7 @@ pub fn write_analytic_capture(
         dir: dir.to_owned(),
         frames,
         depth_unit_scale_factor: 0.0001,
+        device: CaptureDevice::default(),
         extra: Map::new(),
     };
     write_capture(dir, &capture).unwrap();

@@ -1,0 +1,405 @@
+//! Per-frame corrections learned with the field, for captures a phone took: a colour gain per frame and
+//! channel (the camera exposed and white-balanced every frame itself) and a pose correction per frame
+//! (the tracker drifted), as NeRF-W's per-image appearance and nerfstudio's camera optimiser do.
+//!
+//! - **Colour.** The frame's pixels are the field's colour times `exp(g)` per channel (sRGB values: an
+//!   exposure `k` in linear light is close to a gain `k^(1/2.2)` on sRGB values). The field learns
+//!   the colours under the frames' mean exposure; rendering uses gain 1.
+//! - **Pose.** A frame's rays start at `o + τ` and point along `R(ω) d`: a translation `τ` of the camera
+//!   centre and a rotation `ω` (axis × angle) about it, both in the model frame. A sample at distance
+//!   `t` lies at `x = o + τ + t R d`; with `∂L/∂x` from the field's backward pass, `∂L/∂τ = ∂L/∂x` and
+//!   `∂L/∂ω = (t R d) × ∂L/∂x` (a rotation `δ` applied after `R` moves the sample by `δ × t R d`; for
+//!   corrections of a few degrees that is the gradient in `ω` to within a percent).
+//!
+//! Corrections are relative: moving every camera alike moves the model with them, and scaling every
+//! gain alike rescales its colours. After each step the mean correction over the frames is taken out,
+//! so the model keeps the frame the capture's poses and exposures average to.
+
+use glam::{Mat3, Vec3};
+use neuroom_field::{AdamConfig, AdamUpdate};
+use serde::{Deserialize, Serialize};
+
+/// Parameters per frame: rotation (3), translation (3), log gain (3).
+const PER_FRAME: usize = 9;
+const ROTATION: usize = 0;
+const TRANSLATION: usize = 3;
+const LOG_GAIN: usize = 6;
+
+/// Which corrections are learned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Corrected {
+    /// The colour gains.
+    pub colour: bool,
+    /// The poses.
+    pub pose: bool,
+}
+
+/// The learned corrections of every training frame with their optimiser state (checkpointed).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameCorrections {
+    /// Which corrections are learned.
+    pub corrected: Corrected,
+    /// [`PER_FRAME`] values per frame.
+    params: Vec<f32>,
+    /// Adam's first moments.
+    m: Vec<f32>,
+    /// Adam's second moments.
+    v: Vec<f32>,
+    /// Adam steps taken.
+    step: u64,
+    /// Gradient of the current step.
+    #[serde(skip)]
+    grads: Vec<f32>,
+    /// `R(ω)` of every frame, refreshed after each step.
+    #[serde(skip)]
+    rotations: Vec<Mat3>,
+}
+
+/// How far the learned corrections went, over the frames (what `neuroom train` reports).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CorrectionSummary {
+    /// Frames corrected.
+    pub frames: usize,
+    /// Mean camera-centre correction (metres).
+    pub mean_translation_m: f32,
+    /// Largest camera-centre correction (metres).
+    pub max_translation_m: f32,
+    /// Mean rotation correction (degrees).
+    pub mean_rotation_deg: f32,
+    /// Largest rotation correction (degrees).
+    pub max_rotation_deg: f32,
+    /// Smallest and largest colour gain of any frame and channel.
+    pub gain_range: [f32; 2],
+}
+
+impl FrameCorrections {
+    /// No correction yet for `frames` frames.
+    pub fn new(frames: usize, corrected: Corrected) -> Self {
+        let n = frames * PER_FRAME;
+        Self {
+            corrected,
+            params: vec![0.0; n],
+            m: vec![0.0; n],
+            v: vec![0.0; n],
+            step: 0,
+            grads: vec![0.0; n],
+            rotations: vec![Mat3::IDENTITY; frames],
+        }
+    }
+
+    /// Restores the buffers that are not checkpointed (after deserialising).
+    pub fn restored(mut self) -> Self {
+        self.grads = vec![0.0; self.params.len()];
+        self.refresh_rotations();
+        self
+    }
+
+    /// Number of frames.
+    pub fn frames(&self) -> usize {
+        self.params.len() / PER_FRAME
+    }
+
+    fn vec3(&self, frame: usize, at: usize) -> Vec3 {
+        let s = frame * PER_FRAME + at;
+        Vec3::from_slice(&self.params[s..s + 3])
+    }
+
+    fn add_grad(&mut self, frame: usize, at: usize, g: Vec3) {
+        let s = frame * PER_FRAME + at;
+        for (d, x) in self.grads[s..s + 3].iter_mut().zip(g.to_array()) {
+            *d += x;
+        }
+    }
+
+    /// The learned translation of frame `frame`'s camera centre (metres, model frame).
+    pub fn translation(&self, frame: usize) -> Vec3 {
+        self.vec3(frame, TRANSLATION)
+    }
+
+    /// The learned rotation of frame `frame` about its centre (axis × angle in radians, model frame).
+    pub fn rotation(&self, frame: usize) -> Vec3 {
+        self.vec3(frame, ROTATION)
+    }
+
+    /// The corrected centre of frame `frame` whose capture gives `origin`.
+    pub fn origin(&self, frame: usize, origin: Vec3) -> Vec3 {
+        origin + self.vec3(frame, TRANSLATION)
+    }
+
+    /// The corrected direction of a ray of frame `frame` that the capture gives as `dir`.
+    pub fn direction(&self, frame: usize, dir: Vec3) -> Vec3 {
+        self.rotations[frame] * dir
+    }
+
+    /// The colour gain per channel of frame `frame`.
+    pub fn gain(&self, frame: usize) -> [f32; 3] {
+        self.vec3(frame, LOG_GAIN).exp().to_array()
+    }
+
+    /// Adds the gradient of a ray of frame `frame` whose gained colour is `rgb` and whose loss has
+    /// gradient `d_rgb` with respect to it.
+    pub fn add_colour_grad(&mut self, frame: usize, rgb: [f32; 3], d_rgb: [f32; 3]) {
+        let g = Vec3::from(rgb) * Vec3::from(d_rgb);
+        self.add_grad(frame, LOG_GAIN, g);
+    }
+
+    /// Adds the gradient of a sample of frame `frame` at distance `t` along the corrected direction
+    /// `dir`, whose loss has gradient `d_x` with respect to its position.
+    pub fn add_sample_grad(&mut self, frame: usize, t: f32, dir: Vec3, d_x: Vec3) {
+        self.add_grad(frame, TRANSLATION, d_x);
+        self.add_grad(frame, ROTATION, (t * dir).cross(d_x));
+    }
+
+    /// Drops the gradients of a step that is not taken.
+    pub fn clear_grads(&mut self) {
+        self.grads.fill(0.0);
+    }
+
+    /// One Adam step on the gradients added since the last one, at rates `pose_lr` and `gain_lr`; then
+    /// the mean correction is taken out and the gradients are cleared.
+    pub fn step(&mut self, pose_lr: f32, gain_lr: f32) {
+        self.step += 1;
+        let update = AdamUpdate::at(AdamConfig::default(), self.step);
+        let rates = [
+            (ROTATION, pose_lr * self.corrected.pose as u8 as f32),
+            (TRANSLATION, pose_lr * self.corrected.pose as u8 as f32),
+            (LOG_GAIN, gain_lr * self.corrected.colour as u8 as f32),
+        ];
+        for f in 0..self.frames() {
+            for (at, rate) in rates {
+                if rate == 0.0 {
+                    continue;
+                }
+                let r = f * PER_FRAME + at..f * PER_FRAME + at + 3;
+                update.apply(
+                    rate,
+                    &mut self.params[r.clone()],
+                    &self.grads[r.clone()],
+                    &mut self.m[r.clone()],
+                    &mut self.v[r],
+                );
+            }
+        }
+        self.centre();
+        self.grads.fill(0.0);
+        self.refresh_rotations();
+    }
+
+    /// Takes the mean of every correction over the frames out of each frame's.
+    fn centre(&mut self) {
+        let frames = self.frames();
+        if frames == 0 {
+            return;
+        }
+        let mut mean = [0.0f32; PER_FRAME];
+        for chunk in self.params.chunks_exact(PER_FRAME) {
+            for (m, x) in mean.iter_mut().zip(chunk) {
+                *m += x / frames as f32;
+            }
+        }
+        for chunk in self.params.chunks_exact_mut(PER_FRAME) {
+            for (x, m) in chunk.iter_mut().zip(mean) {
+                *x -= m;
+            }
+        }
+    }
+
+    fn refresh_rotations(&mut self) {
+        self.rotations = (0..self.frames())
+            .map(|f| rotation(self.vec3(f, ROTATION)))
+            .collect();
+    }
+
+    /// How far the corrections went.
+    pub fn summary(&self) -> CorrectionSummary {
+        let frames = self.frames();
+        let mut s = CorrectionSummary {
+            frames,
+            gain_range: [f32::INFINITY, f32::NEG_INFINITY],
+            ..Default::default()
+        };
+        for f in 0..frames {
+            let (t, r) = (
+                self.vec3(f, TRANSLATION).length(),
+                self.vec3(f, ROTATION).length().to_degrees(),
+            );
+            s.mean_translation_m += t / frames as f32;
+            s.mean_rotation_deg += r / frames as f32;
+            s.max_translation_m = s.max_translation_m.max(t);
+            s.max_rotation_deg = s.max_rotation_deg.max(r);
+            for g in self.gain(f) {
+                s.gain_range = [s.gain_range[0].min(g), s.gain_range[1].max(g)];
+            }
+        }
+        if frames == 0 {
+            s.gain_range = [1.0, 1.0];
+        }
+        s
+    }
+}
+
+/// `R(ω)`: the rotation by `|ω|` about `ω`.
+fn rotation(omega: Vec3) -> Mat3 {
+    let angle = omega.length();
+    if angle < 1e-12 {
+        return Mat3::IDENTITY;
+    }
+    Mat3::from_axis_angle(omega / angle, angle)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A loss of the samples of one ray: `Σ_i w_i · φ(x_i)` with a smooth `φ`.
+    fn phi(x: Vec3) -> f32 {
+        (1.3 * x.x).sin() + x.y * x.z + 0.5 * x.x * x.x
+    }
+
+    fn d_phi(x: Vec3) -> Vec3 {
+        Vec3::new(1.3 * (1.3 * x.x).cos() + x.x, x.z, x.y)
+    }
+
+    fn ray_loss(c: &FrameCorrections, origin: Vec3, dir: Vec3, ts: &[f32]) -> f32 {
+        let (o, d) = (c.origin(0, origin), c.direction(0, dir));
+        ts.iter().map(|&t| phi(o + t * d)).sum()
+    }
+
+    #[test]
+    fn pose_gradient_matches_finite_differences() {
+        let (origin, dir) = (
+            Vec3::new(0.2, -0.1, 0.4),
+            Vec3::new(0.3, 0.5, -0.8).normalize(),
+        );
+        let ts = [0.5, 1.1, 1.7];
+        let mut c = FrameCorrections::new(
+            1,
+            Corrected {
+                colour: false,
+                pose: true,
+            },
+        );
+        // A correction of a fraction of a degree, as a tracker's drift is.
+        c.params[..6].copy_from_slice(&[0.004, -0.003, 0.002, 0.01, -0.02, 0.015]);
+        c.refresh_rotations();
+        let d = c.direction(0, dir);
+        let o = c.origin(0, origin);
+        for &t in &ts {
+            c.add_sample_grad(0, t, d, d_phi(o + t * d));
+        }
+        let h = 1e-3;
+        for k in 0..6 {
+            let mut plus = c.clone();
+            plus.params[k] += h;
+            plus.refresh_rotations();
+            let mut minus = c.clone();
+            minus.params[k] -= h;
+            minus.refresh_rotations();
+            let fd = (ray_loss(&plus, origin, dir, &ts) - ray_loss(&minus, origin, dir, &ts))
+                / (2.0 * h);
+            let got = c.grads[k];
+            assert!(
+                (got - fd).abs() <= 0.02 * fd.abs().max(0.1),
+                "parameter {k}: analytic {got}, finite difference {fd}"
+            );
+        }
+    }
+
+    #[test]
+    fn gain_gradient_matches_finite_differences() {
+        let rgb = [0.4f32, 0.6, 0.2];
+        let target = [0.5f32, 0.5, 0.3];
+        let loss = |c: &FrameCorrections| -> f32 {
+            let g = c.gain(0);
+            (0..3).map(|k| (g[k] * rgb[k] - target[k]).powi(2)).sum()
+        };
+        let mut c = FrameCorrections::new(
+            1,
+            Corrected {
+                colour: true,
+                pose: false,
+            },
+        );
+        c.params[LOG_GAIN..LOG_GAIN + 3].copy_from_slice(&[0.1, -0.2, 0.05]);
+        let g = c.gain(0);
+        let gained: [f32; 3] = std::array::from_fn(|k| g[k] * rgb[k]);
+        let d: [f32; 3] = std::array::from_fn(|k| 2.0 * (gained[k] - target[k]));
+        c.add_colour_grad(0, gained, d);
+        let h = 1e-3;
+        for k in 0..3 {
+            let i = LOG_GAIN + k;
+            let (mut plus, mut minus) = (c.clone(), c.clone());
+            plus.params[i] += h;
+            minus.params[i] -= h;
+            let fd = (loss(&plus) - loss(&minus)) / (2.0 * h);
+            assert!(
+                (c.grads[i] - fd).abs() <= 1e-3,
+                "channel {k}: analytic {}, finite difference {fd}",
+                c.grads[i]
+            );
+        }
+    }
+
+    #[test]
+    fn steps_recover_shifted_cameras_and_keep_the_mean_at_zero() {
+        // Three frames see the planes x = 1, y = 1 and z = 1 along the axes (loss: squared distance of
+        // each ray's surface point to its plane), from centres the capture gives off by `error`
+        // (zero on average, as the gauge assumes). The corrections must undo the errors.
+        let mut c = FrameCorrections::new(
+            3,
+            Corrected {
+                colour: true,
+                pose: true,
+            },
+        );
+        let error = [
+            Vec3::new(0.015, -0.01, 0.005),
+            Vec3::new(-0.01, 0.0, 0.01),
+            Vec3::new(-0.005, 0.01, -0.015),
+        ];
+        let steps = 600;
+        for i in 0..steps {
+            for (f, e) in error.iter().enumerate() {
+                let given = *e;
+                for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+                    // The surface lies at distance 1 along the axis from the true centre (the origin).
+                    let (o, d) = (c.origin(f, given), c.direction(f, axis));
+                    let x = o + d;
+                    c.add_sample_grad(f, 1.0, d, 2.0 * (x.dot(axis) - 1.0) * axis);
+                }
+            }
+            let lr = 1e-3 * (1.0 - i as f32 / steps as f32);
+            c.step(lr, lr);
+        }
+        let mut sum = Vec3::ZERO;
+        for (f, e) in error.iter().enumerate() {
+            let t = c.vec3(f, TRANSLATION);
+            assert!((t + *e).length() < 1e-3, "frame {f}: {t}, expected {}", -*e);
+            sum += t;
+        }
+        assert!(sum.length() < 1e-6, "centred: {sum}");
+        let s = c.summary();
+        assert_eq!(s.frames, 3);
+        assert!((s.max_translation_m - error[0].length()).abs() < 1e-3);
+        assert_eq!(s.gain_range, [1.0, 1.0]);
+    }
+
+    #[test]
+    fn survives_a_checkpoint() {
+        let mut c = FrameCorrections::new(
+            3,
+            Corrected {
+                colour: true,
+                pose: true,
+            },
+        );
+        c.add_sample_grad(1, 1.0, Vec3::Y, Vec3::new(0.1, 0.2, -0.3));
+        c.add_colour_grad(2, [0.5, 0.5, 0.5], [0.1, -0.1, 0.2]);
+        c.step(1e-3, 1e-2);
+        let json = serde_json::to_value(&c).unwrap();
+        let back: FrameCorrections = serde_json::from_value::<FrameCorrections>(json)
+            .unwrap()
+            .restored();
+        assert_eq!(back, c);
+    }
+}
