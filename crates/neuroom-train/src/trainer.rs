@@ -839,8 +839,29 @@ fn corrections_for(data: &Dataset, config: &TrainConfig) -> Option<FrameCorrecti
         },
         RefineWhen::Never => return None,
     };
-    (corrected.colour || corrected.pose)
-        .then(|| FrameCorrections::new(data.origins.len(), corrected))
+    (corrected.colour || corrected.pose).then(|| FrameCorrections::new(pivots(data), corrected))
+}
+
+/// The centroid of the surface points each training frame sees (its centre when it sees none): what
+/// its pose correction turns about.
+fn pivots(data: &Dataset) -> Vec<Vec3> {
+    let frames = data.origins.len();
+    let mut sum = vec![Vec3::ZERO; frames];
+    let mut count = vec![0u32; frames];
+    let rays = &data.rays;
+    for i in 0..rays.len() {
+        if rays.distance[i] > 0.0 {
+            let f = rays.frame[i] as usize;
+            sum[f] += data.origin(i) + rays.distance[i] * Vec3::from(rays.dir[i]);
+            count[f] += 1;
+        }
+    }
+    (0..frames)
+        .map(|f| match count[f] {
+            0 => Vec3::from(data.origins[f]),
+            n => sum[f] / n as f32,
+        })
+        .collect()
 }
 
 /// Adds every surface sample's position gradient (`batch.d_points`) to its frame's pose correction.
@@ -853,8 +874,7 @@ fn add_pose_grads(batch: &Batch, frames: &mut FrameCorrections) {
         for i in s..e {
             frames.add_sample_grad(
                 frame as usize,
-                batch.t[i],
-                Vec3::from(batch.dirs[i]),
+                Vec3::from(batch.points[i]),
                 Vec3::from(batch.d_points[i]),
             );
         }
