@@ -65,13 +65,13 @@ pub struct FrameCorrections {
 pub struct CorrectionSummary {
     /// Frames corrected.
     pub frames: usize,
-    /// Mean camera-centre correction (metres).
+    /// Mean shift (metres): how far the frame's pivot, what it sees, moved.
     pub mean_translation_m: f32,
-    /// Largest camera-centre correction (metres).
+    /// Largest shift (metres).
     pub max_translation_m: f32,
-    /// Mean rotation correction (degrees).
+    /// Mean turn about the pivot (degrees).
     pub mean_rotation_deg: f32,
-    /// Largest rotation correction (degrees).
+    /// Largest turn about the pivot (degrees).
     pub max_rotation_deg: f32,
     /// Smallest and largest colour gain of any frame and channel.
     pub gain_range: [f32; 2],
@@ -119,12 +119,12 @@ impl FrameCorrections {
         }
     }
 
-    /// The learned translation of frame `frame`'s camera centre (metres, model frame).
+    /// The learned shift of frame `frame`, applied after its turn (metres, model frame).
     pub fn translation(&self, frame: usize) -> Vec3 {
         self.vec3(frame, TRANSLATION)
     }
 
-    /// The learned rotation of frame `frame` about its centre (axis × angle in radians, model frame).
+    /// The learned turn of frame `frame` about its pivot (axis × angle in radians, model frame).
     pub fn rotation(&self, frame: usize) -> Vec3 {
         self.vec3(frame, ROTATION)
     }
@@ -170,10 +170,12 @@ impl FrameCorrections {
     pub fn step(&mut self, pose_lr: f32, gain_lr: f32) {
         self.step += 1;
         let update = AdamUpdate::at(AdamConfig::default(), self.step);
+        let pose_lr = if self.corrected.pose { pose_lr } else { 0.0 };
+        let gain_lr = if self.corrected.colour { gain_lr } else { 0.0 };
         let rates = [
-            (ROTATION, pose_lr * self.corrected.pose as u8 as f32),
-            (TRANSLATION, pose_lr * self.corrected.pose as u8 as f32),
-            (LOG_GAIN, gain_lr * self.corrected.colour as u8 as f32),
+            (ROTATION, pose_lr),
+            (TRANSLATION, pose_lr),
+            (LOG_GAIN, gain_lr),
         ];
         for f in 0..self.frames() {
             for (at, rate) in rates {

@@ -16,7 +16,7 @@ use crate::augment::Augmentation;
 use crate::config::TrainConfig;
 use crate::dataset::{Aabb, Dataset, LoadOptions, Role};
 use crate::eval::{EvalReport, evaluate, extract_mesh};
-use crate::frame_corrections::CorrectionSummary;
+use crate::frame_corrections::{CorrectionSummary, FrameCorrections};
 use crate::losses::LossParts;
 use crate::progress::Progress;
 use crate::trainer::{LightCodes, ModelKind, Trainer, field_config};
@@ -452,7 +452,7 @@ pub fn train_model(
             eval,
             chamfer_m,
             faulty_steps: trainer.state.health.faults,
-            frame_corrections: trainer.frame_corrections(),
+            frame_corrections: trainer.corrections().map(FrameCorrections::summary),
         },
     };
     let mut meta = trainer.trainer_json();

@@ -14,7 +14,7 @@
 use crate::augment::Augmentation;
 use crate::config::{BudgetClock, ModelBudget, ObjectStart, RefineWhen, START_INSET, TrainConfig};
 use crate::dataset::{Aabb, Dataset};
-use crate::frame_corrections::{Corrected, CorrectionSummary, FrameCorrections};
+use crate::frame_corrections::{Corrected, FrameCorrections};
 use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sample_zone, sdf_loss};
 use crate::progress::Progress;
 use crate::rng::Pcg32;
@@ -353,11 +353,6 @@ impl<'a> Trainer<'a> {
     /// The per-frame corrections being learned, when the capture needs them.
     pub fn corrections(&self) -> Option<&FrameCorrections> {
         self.frames.as_ref()
-    }
-
-    /// How far the per-frame corrections went, when the capture needs them.
-    pub fn frame_corrections(&self) -> Option<CorrectionSummary> {
-        self.frames.as_ref().map(FrameCorrections::summary)
     }
 
     /// Whether the run has reached its step count or its time budget.
@@ -938,7 +933,7 @@ impl Trainer<'_> {
                 self.state.health.lr_scale
             ),
         };
-        let corrections = match self.frame_corrections() {
+        let corrections = match self.frames.as_ref().map(FrameCorrections::summary) {
             Some(c) => format!(
                 ", frames corrected by up to {:.1} cm / {:.2}°, gains {:.2}–{:.2}",
                 100.0 * c.max_translation_m,
