@@ -30,6 +30,10 @@ pub struct BenchReport {
     pub log2_table: u32,
     /// Finest grid resolution.
     pub finest: usize,
+    /// The arithmetic the networks' products ran in on this CPU: `f32`, or `bf16` where it was asked
+    /// for and the CPU has it.
+    #[serde(default = "f32_name")]
+    pub mlp_arithmetic: String,
     /// Forward points per second (best of the repetitions).
     pub fwd_points_per_s: f64,
     /// Forward + backward points per second (best of the repetitions).
@@ -48,6 +52,10 @@ pub struct BenchReport {
     /// figure would be on an otherwise idle machine (the mean over the repetitions, so a little pessimistic).
     #[serde(default)]
     pub fwd_bwd_points_per_s_cpu: f64,
+}
+
+fn f32_name() -> String {
+    "f32".to_owned()
 }
 
 /// FLOPs per point of (forward, forward + backward) of a field.
@@ -143,6 +151,11 @@ pub fn field_throughput(
             threads,
             log2_table: config.hash.log2_table,
             finest: config.hash.finest_resolution,
+            mlp_arithmetic: if config.mlp_precision.runs_bf16() {
+                "bf16".to_owned()
+            } else {
+                f32_name()
+            },
             fwd_points_per_s: n as f64 / fwd,
             fwd_bwd_points_per_s,
             flops_per_point_fwd: ff,

@@ -5,9 +5,43 @@
 //! of `B` (whole vectors) and broadcasts `MR` values of `A`. Tiles are chosen by the columns left (64, 32,
 //! then 16 at a time) so that 16- and 32-wide layers do not waste lanes. The same generic code is compiled
 //! three times: with AVX-512 (16 `f32` per register, 32 registers), with AVX2 + FMA, and portably; the
-//! `f64` gradient tests run the portable copy, which is the same source.
+//! `f64` gradient tests run the portable copy, which is the same source. [`Precision::Bf16`] asks for
+//! the bf16 tiles (`kernel/bf16.rs`) where the CPU has AVX-512 BF16 (the `f32` ones elsewhere).
 
 use crate::real::Real;
+use serde::{Deserialize, Serialize};
+
+#[cfg(target_arch = "x86_64")]
+mod bf16;
+
+/// The arithmetic of an `f32` product; `f64` products are always exact `f64`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Precision {
+    /// `f32` operands and accumulation.
+    #[default]
+    F32,
+    /// Operands rounded to bfloat16 (8 bits of mantissa), products accumulated in `f32`: twice the
+    /// multiply–adds per instruction where the CPU has AVX-512 BF16, plain `f32` where it has not.
+    Bf16,
+}
+
+impl Precision {
+    /// Whether this is the default, `f32` (serde skips the default so that configurations written
+    /// before the option keep their form).
+    pub fn is_f32(&self) -> bool {
+        *self == Precision::F32
+    }
+
+    /// Whether products asked in this precision run in bf16 on this CPU.
+    pub fn runs_bf16(self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self == Precision::Bf16 {
+            return bf16::available();
+        }
+        false
+    }
+}
 
 /// Row padding of every right-hand operand (and of the activation buffers that become one): `B` is read
 /// in whole blocks of `LANES` columns, so rows must hold `padded(n)` readable values.
@@ -31,9 +65,11 @@ pub enum Init<'a, T> {
 
 /// `C = init + A · B` where `A[r][s] = a[r · a_rs + s · a_cs]`, `B[s][j] = b[s · ldb + j]` and
 /// `C[r][j] = c[r · ldc + j]` for `r < m`, `j < n`, `s < k`. `B`'s rows must hold `padded(n)` readable
-/// values (those past `n` only reach discarded lanes); only `C[r][..n]` is written.
+/// values (those past `n` only reach discarded lanes); only `C[r][..n]` is written. `precision` applies
+/// to `f32` operands.
 #[allow(clippy::too_many_arguments)] // three strided operands
 pub fn matmul<T: Real>(
+    precision: Precision,
     m: usize,
     n: usize,
     k: usize,
@@ -79,13 +115,19 @@ pub fn matmul<T: Real>(
         init,
     };
     #[cfg(target_arch = "x86_64")]
-    if let Some(args) = args.as_f32()
-        && std::arch::is_x86_feature_detected!("avx512f")
-    {
-        // SAFETY: the CPU has AVX-512F; `args` satisfies the bounds asserted above.
-        unsafe { avx512::run(&args) };
-        return;
+    if let Some(args) = args.as_f32() {
+        if precision.runs_bf16() {
+            // SAFETY: the CPU has AVX-512 BF16; `args` satisfies the bounds asserted above.
+            unsafe { bf16::run(&args) };
+            return;
+        }
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F; `args` satisfies the bounds asserted above.
+            unsafe { avx512::run(&args) };
+            return;
+        }
     }
+    let _ = precision; // only the x86-64 kernels have a bf16 form
     // SAFETY: `args` satisfies the bounds asserted above.
     unsafe { run::<T>(&args) };
 }
@@ -351,7 +393,8 @@ mod tests {
     use super::*;
 
     /// The dispatched kernel (AVX-512 or AVX2 on this machine) against a plain triple loop, over widths
-    /// that exercise every tile shape, row tails, strided `A` and all three initialisations.
+    /// that exercise every tile shape, row tails, odd `k`, row-major and column-major `A` and all three
+    /// initialisations; in bf16 within the rounding of its operands (2⁻⁸ of each product, relative).
     #[test]
     fn matmul_matches_reference() {
         let mut seed = 1u32;
@@ -359,47 +402,102 @@ mod tests {
             seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
             (seed >> 8) as f32 / (1 << 24) as f32 - 0.5
         };
-        for &(m, n, k) in &[
-            (1, 1, 1),
-            (7, 3, 5),
-            (13, 16, 9),
-            (9, 35, 66),
-            (37, 64, 35),
-            (5, 97, 4),
-        ] {
-            let (a_rs, a_cs) = (1, m + 2); // column-major A with padding
-            let a: Vec<f32> = (0..(k + 1) * (m + 2)).map(|_| next()).collect();
-            let ldb = padded(n) + 16;
-            let b: Vec<f32> = (0..k * ldb).map(|_| next()).collect();
-            let bias: Vec<f32> = (0..padded(n)).map(|_| next()).collect();
-            let ldc = n + 3;
-            let c0: Vec<f32> = (0..m * ldc).map(|_| next()).collect();
-            for init in [Init::Zero, Init::Accumulate, Init::Bias(&bias)] {
-                let mut c = c0.clone();
-                matmul(m, n, k, &a, a_rs, a_cs, &b, ldb, &mut c, ldc, init);
-                for r in 0..m {
-                    for j in 0..ldc {
-                        let expect = if j >= n {
-                            c0[r * ldc + j]
-                        } else {
-                            let start = match init {
-                                Init::Zero => 0.0,
-                                Init::Accumulate => c0[r * ldc + j],
-                                Init::Bias(b) => b[j],
-                            };
-                            start
-                                + (0..k)
-                                    .map(|s| a[r * a_rs + s * a_cs] * b[s * ldb + j])
-                                    .sum::<f32>()
-                        };
-                        let got = c[r * ldc + j];
-                        assert!(
-                            (got - expect).abs() < 1e-4,
-                            "({m},{n},{k}) [{r}][{j}]: {got} vs {expect}"
+        for precision in [Precision::F32, Precision::Bf16] {
+            for &(m, n, k) in &[
+                (1, 1, 1),
+                (7, 3, 5),
+                (13, 16, 9),
+                (9, 35, 66),
+                (37, 64, 35),
+                (5, 97, 4),
+            ] {
+                // Column-major A with padding, then row-major A with padding.
+                for (a_rs, a_cs) in [(1, m + 2), (k + 3, 1)] {
+                    let a: Vec<f32> = (0..(m + 1) * (k + 3) + (k + 1) * (m + 2))
+                        .map(|_| next())
+                        .collect();
+                    let ldb = padded(n) + 16;
+                    let b: Vec<f32> = (0..k * ldb).map(|_| next()).collect();
+                    let bias: Vec<f32> = (0..padded(n)).map(|_| next()).collect();
+                    let ldc = n + 3;
+                    let c0: Vec<f32> = (0..m * ldc).map(|_| next()).collect();
+                    for init in [Init::Zero, Init::Accumulate, Init::Bias(&bias)] {
+                        let mut c = c0.clone();
+                        matmul(
+                            precision, m, n, k, &a, a_rs, a_cs, &b, ldb, &mut c, ldc, init,
                         );
+                        for r in 0..m {
+                            for j in 0..ldc {
+                                let (expect, scale) = if j >= n {
+                                    (c0[r * ldc + j], 0.0)
+                                } else {
+                                    let start = match init {
+                                        Init::Zero => 0.0,
+                                        Init::Accumulate => c0[r * ldc + j],
+                                        Init::Bias(b) => b[j],
+                                    };
+                                    let terms =
+                                        (0..k).map(|s| a[r * a_rs + s * a_cs] * b[s * ldb + j]);
+                                    let scale: f32 = terms.clone().map(f32::abs).sum();
+                                    (start + terms.sum::<f32>(), scale)
+                                };
+                                let tolerance = match precision {
+                                    Precision::F32 => 1e-4,
+                                    Precision::Bf16 => 1e-4 + scale / 128.0,
+                                };
+                                let got = c[r * ldc + j];
+                                assert!(
+                                    (got - expect).abs() < tolerance,
+                                    "{precision:?} ({m},{n},{k}) A ({a_rs},{a_cs}) [{r}][{j}]: {got} vs {expect}"
+                                );
+                            }
+                        }
                     }
                 }
             }
         }
+    }
+
+    /// On a CPU with AVX-512 BF16 the bf16 kernel really rounds: a product that `f32` keeps exactly
+    /// differs in bf16. (Elsewhere `Bf16` runs the `f32` kernel and this test has nothing to check.)
+    #[test]
+    fn bf16_rounds_its_operands() {
+        if !Precision::Bf16.runs_bf16() {
+            eprintln!("no AVX-512 BF16 on this CPU: the bf16 kernel is not run");
+            return;
+        }
+        let a = [1.0 + 1.0 / 1024.0];
+        let b = vec![1.0f32; LANES];
+        let mut c = [0.0f32];
+        matmul(
+            Precision::Bf16,
+            1,
+            1,
+            1,
+            &a,
+            1,
+            1,
+            &b,
+            LANES,
+            &mut c,
+            1,
+            Init::Zero,
+        );
+        assert_eq!(c[0], 1.0);
+        matmul(
+            Precision::F32,
+            1,
+            1,
+            1,
+            &a,
+            1,
+            1,
+            &b,
+            LANES,
+            &mut c,
+            1,
+            Init::Zero,
+        );
+        assert_eq!(c[0], a[0]);
     }
 }

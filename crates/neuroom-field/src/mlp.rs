@@ -9,7 +9,7 @@
 //! right-hand operand can be read in whole vectors; the weights are copied into the same padded shape
 //! (and transposed, for the input gradient) once per call.
 
-use crate::kernel::{Init, matmul, padded};
+use crate::kernel::{Init, Precision, matmul, padded};
 use crate::real::Real;
 use crate::rng::SplitMix;
 use serde::{Deserialize, Serialize};
@@ -112,6 +112,9 @@ pub struct MlpConfig {
     pub hidden_activation: Activation,
     /// Activation after the output layer.
     pub output_activation: Activation,
+    /// Arithmetic of the products in `f32` (`f64` networks ignore it).
+    #[serde(default, skip_serializing_if = "Precision::is_f32")]
+    pub precision: Precision,
 }
 
 /// A network's layout: widths, activations and parameter offsets. Parameters live outside.
@@ -142,6 +145,7 @@ pub struct MlpPack<T> {
     forward: Vec<Vec<T>>,
     transposed: Vec<Vec<T>>,
     shared: Range<usize>,
+    precision: Precision,
 }
 
 impl<T: Real> MlpWorkspace<T> {
@@ -263,6 +267,7 @@ impl Mlp {
             pack_transposed(w, i, o, i, tr);
         }
         pack.shared = shared;
+        pack.precision = self.config.precision;
     }
 
     /// [`Mlp::pack_into`] into a new pack.
@@ -315,7 +320,7 @@ impl Mlp {
                 (&before[l - 1][..], padded(i))
             };
             let y = &mut after[0][..n * op];
-            matmul(n, o, i, x, xs, 1, w, op, y, op, init);
+            matmul(pack.precision, n, o, i, x, xs, 1, w, op, y, op, init);
             self.activation(l).apply_rows(y, op, o);
         }
     }
@@ -432,6 +437,7 @@ impl Mlp {
                 // dW += Xᵀ · Δ, for the weight rows before and after the shared ones.
                 let skip = if l == 0 { shared.clone() } else { i..i };
                 matmul(
+                    pack.precision,
                     skip.start,
                     o,
                     n,
@@ -447,6 +453,7 @@ impl Mlp {
                 let (after, gw_after) = (i - skip.end, &mut gw[skip.end * o..]);
                 let x_after = &x[skip.start..];
                 matmul(
+                    pack.precision,
                     after,
                     o,
                     n,
@@ -470,7 +477,20 @@ impl Mlp {
             if l > 0 {
                 // Δ_prev = (Δ · Wᵀ) ⊙ act'(x)
                 let dprev = &mut ws.delta_prev[..n * ip];
-                matmul(n, i, o, delta, op, 1, wt, ip, dprev, ip, Init::Zero);
+                matmul(
+                    pack.precision,
+                    n,
+                    i,
+                    o,
+                    delta,
+                    op,
+                    1,
+                    wt,
+                    ip,
+                    dprev,
+                    ip,
+                    Init::Zero,
+                );
                 self.activation(l - 1)
                     .scale_by_derivative(dprev, &x[..n * ip], ip, i);
                 std::mem::swap(&mut ws.delta, &mut ws.delta_prev);
@@ -479,7 +499,20 @@ impl Mlp {
                     shared.is_empty() || cols <= shared.start,
                     "backward_split: input gradient of shared columns"
                 );
-                matmul(n, cols, o, delta, op, 1, wt, ip, buf, cols, Init::Zero);
+                matmul(
+                    pack.precision,
+                    n,
+                    cols,
+                    o,
+                    delta,
+                    op,
+                    1,
+                    wt,
+                    ip,
+                    buf,
+                    cols,
+                    Init::Zero,
+                );
             }
         }
     }

@@ -18,6 +18,7 @@
 //! uses central finite differences ([`NeusField::eikonal`]), so no second derivatives are ever needed.
 
 use crate::hash::{HashGrid, HashGridConfig, Strides};
+use crate::kernel::Precision;
 use crate::mlp::{Activation, Mlp, MlpConfig, MlpPack, MlpWorkspace};
 use crate::params::{Group, Params};
 use crate::real::Real;
@@ -76,6 +77,9 @@ pub struct NeusConfig {
     pub init_variance: f32,
     /// Seed of the initialisation.
     pub seed: u64,
+    /// Arithmetic of both networks' products (default `f32`).
+    #[serde(default, skip_serializing_if = "Precision::is_f32")]
+    pub mlp_precision: Precision,
 }
 
 impl NeusConfig {
@@ -152,6 +156,7 @@ impl NeusConfig {
             init,
             init_variance: 0.3,
             seed: 0x5EED,
+            mlp_precision: Precision::F32,
         }
     }
 
@@ -357,6 +362,7 @@ impl<T: Real> NeusField<T> {
             output: 1 + config.geometry_features,
             hidden_activation: config.sdf_activation,
             output_activation: Activation::None,
+            precision: config.mlp_precision,
         });
         let color_mlp = Mlp::new(MlpConfig {
             input: config.geometry_features + 2 * config.code_dim + SH_DIM + 3,
@@ -364,6 +370,7 @@ impl<T: Real> NeusField<T> {
             output: 3,
             hidden_activation: Activation::Relu,
             output_activation: Activation::Sigmoid,
+            precision: config.mlp_precision,
         });
         let sizes = [
             grid.num_params(),

@@ -1,6 +1,7 @@
 //! Finite-difference checks of every hand-written backward pass, in f64, on points away from kinks.
 
 use neuroom_field::hash::{HashGrid, HashGridConfig, Strides};
+use neuroom_field::kernel::Precision;
 use neuroom_field::mlp::{Activation, Mlp, MlpConfig};
 use neuroom_field::rng::SplitMix;
 use neuroom_field::{CodeSet, Codes, Group, NeusConfig, NeusField, Outputs, Params, Tape};
@@ -121,6 +122,7 @@ fn check_mlp(hidden_activation: Activation, output_activation: Activation) {
         output: 4,
         hidden_activation,
         output_activation,
+        precision: Precision::F32,
     });
     let mut rng = SplitMix::new(3);
     let mut params = vec![0.0f64; mlp.num_params()];
@@ -212,6 +214,7 @@ fn mlp_output_input_gradient_single_layer() {
         output: 2,
         hidden_activation: Activation::Relu,
         output_activation: Activation::Sigmoid,
+        precision: Precision::F32,
     });
     let mut rng = SplitMix::new(5);
     let params = random(&mut rng, mlp.num_params(), 0.8);
@@ -597,6 +600,7 @@ fn mlp_split_gradients() {
         output: 3,
         hidden_activation: Activation::Softplus { beta: 2.0 },
         output_activation: Activation::Sigmoid,
+        precision: Precision::F32,
     });
     let (n, h, shared) = (4, 5, 2..4);
     let mut rng = SplitMix::new(9);

@@ -2,6 +2,7 @@
 
 use crate::augment::vendored_env_maps;
 use crate::losses::LossWeights;
+use neuroom_field::kernel::Precision;
 use neuroom_field::{Group, NUM_GROUPS};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -119,6 +120,10 @@ pub struct TrainConfig {
     /// bytes (the validation suite's model cache is keyed by them).
     #[serde(default, skip_serializing_if = "FrameRefinement::is_default")]
     pub frame_refinement: FrameRefinement,
+    /// Arithmetic of the fields' network products; stored in each model's field configuration, so the
+    /// model renders in the arithmetic it was trained in. Left out while `f32`, as above.
+    #[serde(default, skip_serializing_if = "Precision::is_f32")]
+    pub mlp_precision: Precision,
 }
 
 /// Which frame corrections a model learns.
@@ -224,6 +229,7 @@ impl Default for TrainConfig {
             budget_clock: BudgetClock::Wall,
             object_start: ObjectStart::Box,
             frame_refinement: FrameRefinement::default(),
+            mlp_precision: Precision::F32,
         }
     }
 }

@@ -206,7 +206,7 @@ impl<'a> Trainer<'a> {
         } else {
             1
         };
-        let fc = field_config(
+        let mut fc = field_config(
             kind,
             bounds,
             &budget,
@@ -215,6 +215,7 @@ impl<'a> Trainer<'a> {
             appearance,
             config.seed,
         );
+        fc.mlp_precision = config.mlp_precision;
         let field = NeusField::new(fc);
         let adam = Adam::new(AdamConfig::default(), &field.params);
         let frames = corrections_for(data, config);

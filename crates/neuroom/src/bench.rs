@@ -2,6 +2,7 @@
 
 use neuroom_field::NeusConfig;
 use neuroom_field::bench::{BenchReport, field_throughput};
+use neuroom_field::kernel::Precision;
 
 /// What `neuroom bench field` measures.
 #[derive(Clone, Debug, Default)]
@@ -14,6 +15,8 @@ pub struct FieldBench {
     pub n: Vec<usize>,
     /// Worker threads.
     pub threads: usize,
+    /// Arithmetic of the networks' products.
+    pub mlp_precision: Precision,
 }
 
 /// Measures field throughput for the default object and room configurations, or for a custom one.
@@ -24,7 +27,7 @@ pub fn field(spec: &FieldBench) -> anyhow::Result<Vec<BenchReport>> {
     } else {
         spec.n.clone()
     };
-    let configs = if spec.log2_table.is_some() || spec.finest.is_some() {
+    let mut configs = if spec.log2_table.is_some() || spec.finest.is_some() {
         let mut c = NeusConfig::object([0.5; 3]);
         c.hash.log2_table = spec.log2_table.unwrap_or(c.hash.log2_table);
         c.hash.finest_resolution = spec.finest.unwrap_or(c.hash.finest_resolution);
@@ -36,7 +39,8 @@ pub fn field(spec: &FieldBench) -> anyhow::Result<Vec<BenchReport>> {
         ]
     };
     let mut reports = Vec::new();
-    for (label, config) in &configs {
+    for (label, config) in &mut configs {
+        config.mlp_precision = spec.mlp_precision;
         for &n in &ns {
             anyhow::ensure!(n > 0, "--n must be positive");
             reports.push(field_throughput(label, config, n, spec.threads, 3));
@@ -48,12 +52,13 @@ pub fn field(spec: &FieldBench) -> anyhow::Result<Vec<BenchReport>> {
 /// One line of text for a field measurement.
 pub fn describe_field(r: &BenchReport) -> String {
     format!(
-        "field {:6} n={:7} T=2^{} finest={}: fwd {:.3} M points/s, fwd+bwd {:.3} M points/s \
+        "field {:6} n={:7} T=2^{} finest={} {}: fwd {:.3} M points/s, fwd+bwd {:.3} M points/s \
          ({:.3} M by CPU time), {:.0} FLOPs/point, {:.1} GFLOP/s = {:.1} % of {:.0} GFLOP/s peak",
         r.config,
         r.n,
         r.log2_table,
         r.finest,
+        r.mlp_arithmetic,
         r.fwd_points_per_s * 1e-6,
         r.fwd_bwd_points_per_s * 1e-6,
         r.fwd_bwd_points_per_s_cpu * 1e-6,

@@ -2,6 +2,8 @@
 
 use std::path::Path;
 
+/// The arithmetic of the fields' network products (`TrainOptions::mlp_precision`).
+pub use neuroom_field::kernel::Precision as MlpPrecision;
 use neuroom_identify::TrainSettings;
 pub use neuroom_train::config::RefineWhen;
 
@@ -38,6 +40,8 @@ pub struct TrainOptions {
     pub only: Vec<String>,
     /// Which per-frame corrections (colour gains, poses) the models learn.
     pub frame_corrections: RefineWhen,
+    /// Arithmetic of the fields' network products.
+    pub mlp_precision: MlpPrecision,
 }
 
 impl TrainOptions {
@@ -84,6 +88,7 @@ impl TrainOptions {
             c.budget_clock = neuroom_train::BudgetClock::Cpu;
         }
         c.frame_refinement.when = self.frame_corrections;
+        c.mlp_precision = self.mlp_precision;
         c
     }
 }

@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use super::mlp_precision_arg::MlpPrecisionArg;
 use neuroom::bench::{self, FieldBench};
 
 /// Measure the performance figures the README reports.
@@ -206,6 +207,9 @@ struct TrainArgs {
     /// machine, where the threads also wait for each other).
     #[arg(long)]
     cpu_clock: bool,
+    /// Arithmetic of the networks' products.
+    #[arg(long, value_enum, default_value_t)]
+    mlp_precision: MlpPrecisionArg,
     /// Print the report as JSON after the text.
     #[arg(long)]
     json: bool,
@@ -251,6 +255,9 @@ struct FieldArgs {
     /// Worker threads.
     #[arg(long, default_value_t = 2)]
     threads: usize,
+    /// Arithmetic of the networks' products.
+    #[arg(long, value_enum, default_value_t)]
+    mlp_precision: MlpPrecisionArg,
 }
 
 /// Runs the command.
@@ -262,6 +269,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 finest: a.finest,
                 n: a.n,
                 threads: a.threads,
+                mlp_precision: a.mlp_precision.into(),
             };
             for report in bench::field(&spec)? {
                 println!("{}", bench::describe_field(&report));
@@ -287,6 +295,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     object_seconds: a.seconds,
                     background_seconds: a.seconds,
                     cpu_clock: a.cpu_clock,
+                    mlp_precision: a.mlp_precision.into(),
                     ..Default::default()
                 },
             )?;

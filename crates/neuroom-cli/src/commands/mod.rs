@@ -16,6 +16,7 @@ pub mod import;
 pub mod info;
 pub mod locate;
 pub mod masks;
+mod mlp_precision_arg;
 mod pinhole;
 mod record_args;
 pub mod relight;
