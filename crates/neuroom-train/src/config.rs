@@ -147,20 +147,22 @@ pub struct FrameRefinement {
     pub pose_lr: f32,
     /// Adam's rate of the log colour gains.
     pub gain_lr: f32,
-    /// Fraction of the run before the poses move: the first steps shape the surfaces the poses are
-    /// aligned to, and a pose moved against a field that is not there yet only follows noise.
+    /// Fraction of the run before the poses move (0: from the first step). Held back, the field
+    /// first learns the frames' disagreement as blur and the poses start from that; moved from the
+    /// start at a low rate, they settle with the surfaces.
     pub pose_start: f32,
 }
 
 impl Default for FrameRefinement {
-    /// Poses at 1e-3 (a millimetre or a milliradian per step at most, so a tracker's centimetres are
-    /// crossed in tens of steps), gains at 5e-3, poses from a tenth of the run on.
+    /// Poses at 3e-4 (0.3 mm or 0.3 mrad per step at most: a tracker's centimetres are crossed in a
+    /// hundred steps, and the steps' own jitter stays well below the error corrected), gains at 5e-3,
+    /// poses from the first step.
     fn default() -> Self {
         Self {
             when: RefineWhen::FromCapture,
-            pose_lr: 1e-3,
+            pose_lr: 3e-4,
             gain_lr: 5e-3,
-            pose_start: 0.1,
+            pose_start: 0.0,
         }
     }
 }

@@ -156,15 +156,18 @@ pub fn suite_rooms(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
 
 /// The cache folder of `room`'s models under `cache`: keyed by the training configuration and by the
 /// bytes of room.json and of every capture's transforms.json, so changed budgets or a regenerated room
-/// train anew instead of reusing stale models.
+/// train anew instead of reusing stale models. The per-frame corrections' settings are left out of a
+/// configuration's serialised form while they are the defaults; a room whose captures come from a
+/// phone (corrections learned) is keyed by them too, so a change of those defaults retrains it.
 pub fn cached_models_dir(
     cache: &Path,
     room: &Path,
     training: &SuiteTraining,
 ) -> anyhow::Result<PathBuf> {
     let parsed = crate::read_room(room)?;
+    let config = training.options().config();
     let mut hash = Sha256::new();
-    hash.update(serde_json::to_vec(&training.options().config())?);
+    hash.update(serde_json::to_vec(&config)?);
     let room_json = room.join("room.json");
     hash.update(std::fs::read(&room_json).with_context(|| format!("{}", room_json.display()))?);
     let mut captures: Vec<&Path> = std::iter::once(parsed.background.capture.as_path())
@@ -172,11 +175,17 @@ pub fn cached_models_dir(
         .collect();
     captures.sort_unstable();
     captures.dedup();
+    let mut corrected = false;
     for capture in captures {
         let transforms = room.join(capture).join("transforms.json");
         hash.update(
             std::fs::read(&transforms).with_context(|| format!("{}", transforms.display()))?,
         );
+        let device = neuroom_core::formats::read_capture(&transforms)?.device;
+        corrected |= device.auto_exposure || device.tracked_poses;
+    }
+    if corrected {
+        hash.update(serde_json::to_vec(&config.frame_refinement)?);
     }
     let key: String = hash.finalize()[..8]
         .iter()
