@@ -91,7 +91,7 @@ fn main() {
                 m: s.m,
                 n: s.n,
                 k: s.k,
-                arithmetic: if precision.runs_bf16() { "bf16" } else { "f32" },
+                arithmetic: precision.arithmetic(),
                 microseconds: seconds * 1e6,
                 gflops: 2.0 * (s.m * s.n * s.k) as f64 / seconds * 1e-9,
             };

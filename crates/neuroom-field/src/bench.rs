@@ -151,11 +151,7 @@ pub fn field_throughput(
             threads,
             log2_table: config.hash.log2_table,
             finest: config.hash.finest_resolution,
-            mlp_arithmetic: if config.mlp_precision.runs_bf16() {
-                "bf16".to_owned()
-            } else {
-                f32_name()
-            },
+            mlp_arithmetic: config.mlp_precision.arithmetic().to_owned(),
             fwd_points_per_s: n as f64 / fwd,
             fwd_bwd_points_per_s,
             flops_per_point_fwd: ff,

@@ -33,6 +33,11 @@ impl Precision {
         *self == Precision::F32
     }
 
+    /// The arithmetic products asked in this precision run in on this CPU: `"bf16"` or `"f32"`.
+    pub fn arithmetic(self) -> &'static str {
+        if self.runs_bf16() { "bf16" } else { "f32" }
+    }
+
     /// Whether products asked in this precision run in bf16 on this CPU.
     pub fn runs_bf16(self) -> bool {
         #[cfg(target_arch = "x86_64")]
@@ -127,6 +132,7 @@ pub fn matmul<T: Real>(
             return;
         }
     }
+    #[cfg(not(target_arch = "x86_64"))]
     let _ = precision; // only the x86-64 kernels have a bf16 form
     // SAFETY: `args` satisfies the bounds asserted above.
     unsafe { run::<T>(&args) };
@@ -322,30 +328,35 @@ mod avx512 {
         }
     }
 
-    /// Lane mask of the first `cols - 16·v` lanes of register `v` (all, none or a prefix).
+    /// Mask of the first `live ≤ 16` lanes.
     #[inline(always)]
-    fn mask(cols: usize, v: usize) -> __mmask16 {
-        let live = cols.saturating_sub(16 * v).min(16);
+    pub(super) fn prefix(live: usize) -> __mmask16 {
         ((1u32 << live) - 1) as __mmask16
     }
 
-    /// One `MR × 16·NV` tile of `C` at row `r`, column `j`; only the first `cols` columns are read from
-    /// and written to `C` (masked). `B` is read in whole registers.
+    /// Lane mask of the first `cols - 16·v` lanes of register `v` (all, none or a prefix).
+    #[inline(always)]
+    fn mask(cols: usize, v: usize) -> __mmask16 {
+        prefix(cols.saturating_sub(16 * v).min(16))
+    }
+
+    /// The sums of an `MR × 16·NV` tile of `C` at row `r`, column `j` as `args.init` starts them: zero,
+    /// `C`'s first `cols` columns (masked), or the bias. Shared by the `f32` and bf16 tiles.
     ///
     /// # Safety
-    /// Rows `r..r + MR` are below `m`; `j + 16·NV ≤ padded(n)`, so `B`'s rows are readable that far.
+    /// As [`tile`].
     #[target_feature(enable = "avx512f")]
     #[inline]
-    unsafe fn tile<const MR: usize, const NV: usize>(
+    pub(super) unsafe fn start<const MR: usize, const NV: usize>(
         args: &Args<f32>,
         r: usize,
         j: usize,
         cols: usize,
-    ) {
-        // SAFETY (whole body): offsets stay within the operands by `matmul`'s bounds and the caller's
-        // promises; `C` is only touched through masks of its first `cols` columns.
+    ) -> [[__m512; NV]; MR] {
+        let mut acc = [[_mm512_setzero_ps(); NV]; MR];
+        // SAFETY: rows and columns as the caller promises; `C` is read through masks of its first
+        // `cols` columns, the bias holds `padded(n)` values.
         unsafe {
-            let mut acc = [[_mm512_setzero_ps(); NV]; MR];
             match args.init {
                 Init::Zero => {}
                 Init::Accumulate => {
@@ -364,6 +375,51 @@ mod avx512 {
                     }
                 }
             }
+        }
+        acc
+    }
+
+    /// Writes the tile's sums to `C`'s first `cols` columns (masked).
+    ///
+    /// # Safety
+    /// As [`tile`].
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    pub(super) unsafe fn store<const MR: usize, const NV: usize>(
+        args: &Args<f32>,
+        acc: &[[__m512; NV]; MR],
+        r: usize,
+        j: usize,
+        cols: usize,
+    ) {
+        for (q, row) in acc.iter().enumerate() {
+            // SAFETY: row `r + q < m`; the stores are masked to the first `cols` columns.
+            unsafe {
+                let c = args.c.add((r + q) * args.ldc + j);
+                for (v, x) in row.iter().enumerate() {
+                    _mm512_mask_storeu_ps(c.add(16 * v), mask(cols, v), *x);
+                }
+            }
+        }
+    }
+
+    /// One `MR × 16·NV` tile of `C` at row `r`, column `j`; only the first `cols` columns are read from
+    /// and written to `C` (masked). `B` is read in whole registers.
+    ///
+    /// # Safety
+    /// Rows `r..r + MR` are below `m`; `j + 16·NV ≤ padded(n)`, so `B`'s rows are readable that far.
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    unsafe fn tile<const MR: usize, const NV: usize>(
+        args: &Args<f32>,
+        r: usize,
+        j: usize,
+        cols: usize,
+    ) {
+        // SAFETY (whole body): offsets stay within the operands by `matmul`'s bounds and the caller's
+        // promises; `C` is only touched through masks of its first `cols` columns.
+        unsafe {
+            let mut acc = start::<MR, NV>(args, r, j, cols);
             let mut bv = [_mm512_setzero_ps(); NV];
             for s in 0..args.k {
                 let bp = args.b.add(s * args.ldb + j);
@@ -378,12 +434,7 @@ mod avx512 {
                     }
                 }
             }
-            for (q, row) in acc.iter().enumerate() {
-                let c = args.c.add((r + q) * args.ldc + j);
-                for (v, x) in row.iter().enumerate() {
-                    _mm512_mask_storeu_ps(c.add(16 * v), mask(cols, v), *x);
-                }
-            }
+            store(args, &acc, r, j, cols);
         }
     }
 }

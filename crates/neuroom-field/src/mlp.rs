@@ -145,7 +145,6 @@ pub struct MlpPack<T> {
     forward: Vec<Vec<T>>,
     transposed: Vec<Vec<T>>,
     shared: Range<usize>,
-    precision: Precision,
 }
 
 impl<T: Real> MlpWorkspace<T> {
@@ -267,7 +266,6 @@ impl Mlp {
             pack_transposed(w, i, o, i, tr);
         }
         pack.shared = shared;
-        pack.precision = self.config.precision;
     }
 
     /// [`Mlp::pack_into`] into a new pack.
@@ -320,7 +318,7 @@ impl Mlp {
                 (&before[l - 1][..], padded(i))
             };
             let y = &mut after[0][..n * op];
-            matmul(pack.precision, n, o, i, x, xs, 1, w, op, y, op, init);
+            matmul(self.config.precision, n, o, i, x, xs, 1, w, op, y, op, init);
             self.activation(l).apply_rows(y, op, o);
         }
     }
@@ -437,7 +435,7 @@ impl Mlp {
                 // dW += Xᵀ · Δ, for the weight rows before and after the shared ones.
                 let skip = if l == 0 { shared.clone() } else { i..i };
                 matmul(
-                    pack.precision,
+                    self.config.precision,
                     skip.start,
                     o,
                     n,
@@ -453,7 +451,7 @@ impl Mlp {
                 let (after, gw_after) = (i - skip.end, &mut gw[skip.end * o..]);
                 let x_after = &x[skip.start..];
                 matmul(
-                    pack.precision,
+                    self.config.precision,
                     after,
                     o,
                     n,
@@ -478,7 +476,7 @@ impl Mlp {
                 // Δ_prev = (Δ · Wᵀ) ⊙ act'(x)
                 let dprev = &mut ws.delta_prev[..n * ip];
                 matmul(
-                    pack.precision,
+                    self.config.precision,
                     n,
                     i,
                     o,
@@ -500,7 +498,7 @@ impl Mlp {
                     "backward_split: input gradient of shared columns"
                 );
                 matmul(
-                    pack.precision,
+                    self.config.precision,
                     n,
                     cols,
                     o,

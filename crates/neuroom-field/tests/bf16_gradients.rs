@@ -67,14 +67,45 @@ fn finite_differences(x: &[f64], mut f: impl FnMut(&[f64]) -> f64) -> Vec<f64> {
         .collect()
 }
 
-#[test]
-fn bf16_mlp_gradients_match_finite_differences_of_the_reference() {
+/// The `f64` reference network with initialised parameters and `n` rows of input in `[-1, 1]`.
+struct Case {
+    reference: Mlp,
+    params: Vec<f64>,
+    input: Vec<f64>,
+    rng: SplitMix,
+}
+
+fn case(seed: u64, n: usize) -> Case {
     let reference = Mlp::new(config(Precision::F32));
-    let mut rng = SplitMix::new(11);
+    let mut rng = SplitMix::new(seed);
     let mut params = vec![0.0f64; reference.num_params()];
     reference.init(&mut params, &mut rng, 1.0);
+    let input = (0..n * 35).map(|_| 2.0 * rng.next_f64() - 1.0).collect();
+    Case {
+        reference,
+        params,
+        input,
+        rng,
+    }
+}
+
+fn narrow(v: &[f64]) -> Vec<f32> {
+    v.iter().map(|x| *x as f32).collect()
+}
+
+fn widen(v: &[f32]) -> Vec<f64> {
+    v.iter().map(|x| *x as f64).collect()
+}
+
+#[test]
+fn bf16_mlp_gradients_match_finite_differences_of_the_reference() {
     let n = 24;
-    let input: Vec<f64> = (0..n * 35).map(|_| 2.0 * rng.next_f64() - 1.0).collect();
+    let Case {
+        reference,
+        params,
+        input,
+        mut rng,
+    } = case(11, n);
     let c: Vec<f64> = (0..n * 16).map(|_| 2.0 * rng.next_f64() - 1.0).collect();
 
     // Finite differences of the f64 network, by parameter and by input.
@@ -84,9 +115,7 @@ fn bf16_mlp_gradients_match_finite_differences_of_the_reference() {
 
     for (precision, tolerance) in [(Precision::F32, 1e-5), (Precision::Bf16, BF16_TOLERANCE)] {
         let mlp = Mlp::new(config(precision));
-        let p32: Vec<f32> = params.iter().map(|v| *v as f32).collect();
-        let x32: Vec<f32> = input.iter().map(|v| *v as f32).collect();
-        let c32: Vec<f32> = c.iter().map(|v| *v as f32).collect();
+        let (p32, x32, c32) = (narrow(&params), narrow(&input), narrow(&c));
         let mut ws = mlp.workspace::<f32>(n);
         loss(&mlp, &p32, &x32, &c32, n, &mut ws);
         let mut grads = vec![0.0f32; p32.len()];
@@ -101,7 +130,6 @@ fn bf16_mlp_gradients_match_finite_differences_of_the_reference() {
             Some(&mut grads),
             Some((&mut d_in, 35)),
         );
-        let widen = |v: &[f32]| v.iter().map(|x| *x as f64).collect::<Vec<_>>();
         let what = format!("{precision:?} parameter");
         assert_within(&what, &widen(&grads), &d_params_fd, tolerance);
         let what = format!("{precision:?} input");
@@ -112,27 +140,25 @@ fn bf16_mlp_gradients_match_finite_differences_of_the_reference() {
 /// The input gradient of one output (what a field's normal is) in bf16 against the `f64` network's.
 #[test]
 fn bf16_output_input_gradient_matches_the_reference() {
-    let reference = Mlp::new(config(Precision::F32));
-    let mut rng = SplitMix::new(12);
-    let mut params = vec![0.0f64; reference.num_params()];
-    reference.init(&mut params, &mut rng, 1.0);
     let n = 16;
-    let input: Vec<f64> = (0..n * 35).map(|_| 2.0 * rng.next_f64() - 1.0).collect();
-    let gradient = |mlp: &Mlp, params: &[f64], input: &[f64]| -> Vec<f64> {
-        let p32: Vec<f32> = params.iter().map(|v| *v as f32).collect();
-        let x32: Vec<f32> = input.iter().map(|v| *v as f32).collect();
-        let pack = mlp.pack(&p32, 0..0);
-        let mut ws = mlp.workspace::<f32>(n);
-        mlp.forward(&pack, &x32, n, &mut ws);
-        let mut d = vec![0.0f32; n * 3];
-        mlp.output_input_gradient(&pack, (&x32, 35), n, &mut ws, 0, (&mut d, 3));
-        d.iter().map(|v| *v as f64).collect()
-    };
-    let mut ws = reference.workspace::<f64>(n);
-    let pack = reference.pack(&params, 0..0);
-    reference.forward(&pack, &input, n, &mut ws);
-    let mut expect = vec![0.0f64; n * 3];
-    reference.output_input_gradient(&pack, (&input, 35), n, &mut ws, 0, (&mut expect, 3));
-    let got = gradient(&Mlp::new(config(Precision::Bf16)), &params, &input);
+    let Case {
+        reference,
+        params,
+        input,
+        ..
+    } = case(12, n);
+    let expect = normal(&reference, &params, &input, n);
+    let bf16 = Mlp::new(config(Precision::Bf16));
+    let got = widen(&normal(&bf16, &narrow(&params), &narrow(&input), n));
     assert_within("normal", &got, &expect, BF16_TOLERANCE);
+}
+
+/// The gradient of output 0 with respect to the first 3 input columns, `n × 3`.
+fn normal<T: neuroom_field::Real>(mlp: &Mlp, params: &[T], input: &[T], n: usize) -> Vec<T> {
+    let pack = mlp.pack(params, 0..0);
+    let mut ws = mlp.workspace::<T>(n);
+    mlp.forward(&pack, input, n, &mut ws);
+    let mut d = vec![T::ZERO; n * 3];
+    mlp.output_input_gradient(&pack, (input, 35), n, &mut ws, 0, (&mut d, 3));
+    d
 }

@@ -178,10 +178,10 @@ pub fn cached_models_dir(
     let mut corrected = false;
     for capture in captures {
         let transforms = room.join(capture).join("transforms.json");
-        hash.update(
-            std::fs::read(&transforms).with_context(|| format!("{}", transforms.display()))?,
-        );
-        let device = neuroom_core::formats::read_capture(&transforms)?.device;
+        let bytes =
+            std::fs::read(&transforms).with_context(|| format!("{}", transforms.display()))?;
+        hash.update(&bytes);
+        let device = neuroom_core::formats::parse_capture(&transforms, &bytes)?.device;
         corrected |= device.auto_exposure || device.tracked_poses;
     }
     if corrected {

@@ -7,7 +7,8 @@
 //! by `row · row_stride + pair · pair_stride`, in whichever order its source is contiguous. An odd `k`
 //! pads its last pair with zero. Rounding is to nearest even (`vcvtne2ps2bf16`).
 
-use super::{Args, Init, padded};
+use super::avx512::{prefix, start, store};
+use super::{Args, padded};
 use std::arch::x86_64::*;
 use std::cell::RefCell;
 
@@ -163,12 +164,6 @@ unsafe fn load(line: *const f32, x0: usize, lane: usize, live: usize) -> __m512 
     }
 }
 
-/// Mask of the first `live ≤ 16` lanes.
-#[inline(always)]
-fn prefix(live: usize) -> __mmask16 {
-    ((1u32 << live) - 1) as __mmask16
-}
-
 /// Walks `C` in column blocks of 64, 32 or 16 as the `f32` kernel does, with taller tiles for the
 /// narrower blocks (8 and 16 rows): a bf16 step has half the instructions of an `f32` one, so more
 /// independent sums are needed to keep `vdpbf16ps` busy.
@@ -230,29 +225,10 @@ unsafe fn tile<const MR: usize, const NV: usize>(
     j: usize,
     cols: usize,
 ) {
-    let mask = |v: usize| prefix(cols.saturating_sub(16 * v).min(16));
-    // SAFETY (whole body): the packed operands hold every pair read; `C` and the bias are touched as in
-    // the `f32` kernel, masked to the first `cols` columns.
+    // SAFETY (whole body): the packed operands hold every pair read; `C` and the bias are touched by
+    // the `f32` kernel's `start` and `store`, under the same promises.
     unsafe {
-        let mut acc = [[_mm512_setzero_ps(); NV]; MR];
-        match args.init {
-            Init::Zero => {}
-            Init::Accumulate => {
-                for (q, row) in acc.iter_mut().enumerate() {
-                    let c = args.c.add((r + q) * args.ldc + j);
-                    for (v, x) in row.iter_mut().enumerate() {
-                        *x = _mm512_maskz_loadu_ps(mask(v), c.add(16 * v));
-                    }
-                }
-            }
-            Init::Bias(bias) => {
-                for row in acc.iter_mut() {
-                    for (v, x) in row.iter_mut().enumerate() {
-                        *x = _mm512_loadu_ps(bias.as_ptr().add(j + 16 * v));
-                    }
-                }
-            }
-        }
+        let mut acc = start::<MR, NV>(args, r, j, cols);
         let (ap, bp) = (a.data.as_ptr(), b.data.as_ptr());
         let mut bv = [_mm512_setzero_si512(); NV];
         for s in 0..args.k.div_ceil(2) {
@@ -269,11 +245,6 @@ unsafe fn tile<const MR: usize, const NV: usize>(
                 }
             }
         }
-        for (q, row) in acc.iter().enumerate() {
-            let c = args.c.add((r + q) * args.ldc + j);
-            for (v, x) in row.iter().enumerate() {
-                _mm512_mask_storeu_ps(c.add(16 * v), mask(v), *x);
-            }
-        }
+        store(args, &acc, r, j, cols);
     }
 }
