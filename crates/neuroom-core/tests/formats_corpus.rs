@@ -244,6 +244,12 @@ fn every_malformed_file_is_rejected_with_file_field_and_reason() {
             "true or false",
         ),
         (
+            "transforms_bad_depth_noise.json",
+            Capture,
+            Some("depth_noise"),
+            "at_0m",
+        ),
+        (
             "arrangement_duplicate_name.json",
             Arrangement,
             Some("objects[1].name"),

@@ -4,10 +4,10 @@ use glam::{DMat3, DVec3, EulerRot};
 use neuroom_core::Pose;
 use neuroom_core::camera::Pinhole;
 use neuroom_core::formats::{
-    ArrangedObject, Arrangement, BackgroundSpec, Capture, CaptureDevice, Conversion, Frame, Room,
-    RoomObject, check_same_size, read_arrangement, read_capture, read_depth, read_image_size,
-    read_intrinsics_file, read_mask, read_rgb, read_rgba, read_room, write_arrangement,
-    write_capture, write_depth, write_mask, write_rgb, write_rgba, write_room,
+    ArrangedObject, Arrangement, BackgroundSpec, Capture, CaptureDevice, Conversion, DepthNoise,
+    Frame, Room, RoomObject, check_same_size, read_arrangement, read_capture, read_depth,
+    read_image_size, read_intrinsics_file, read_mask, read_rgb, read_rgba, read_room,
+    write_arrangement, write_capture, write_depth, write_mask, write_rgb, write_rgba, write_room,
 };
 use neuroom_core::image::Image;
 use serde_json::json;
@@ -152,6 +152,10 @@ fn capture_round_trip_with_per_frame_intrinsics_and_extras() {
         device: CaptureDevice {
             auto_exposure: true,
             tracked_poses: false,
+            depth_noise: Some(DepthNoise {
+                at_0m: 0.004,
+                per_m: 0.0025,
+            }),
         },
         extra,
     };

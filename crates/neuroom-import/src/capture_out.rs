@@ -8,7 +8,9 @@ use anyhow::Context as _;
 use image::imageops::FilterType;
 use neuroom_core::camera::Pinhole;
 use neuroom_core::depth_upsample::upsample_depth;
-use neuroom_core::formats::{self, Capture, CaptureDevice, Frame, transforms::DEFAULT_DEPTH_UNIT};
+use neuroom_core::formats::{
+    self, Capture, CaptureDevice, DepthNoise, Frame, transforms::DEFAULT_DEPTH_UNIT,
+};
 use neuroom_core::image::{DepthImage, Image, RgbImage};
 use neuroom_core::pose::Pose;
 use serde_json::Map;
@@ -123,10 +125,12 @@ impl CaptureWriter {
             dir: self.dir.clone(),
             frames: self.frames,
             depth_unit_scale_factor: DEFAULT_DEPTH_UNIT,
-            // Every app this crate reads tracks its poses; phones expose every frame themselves.
+            // Every app this crate reads tracks its poses and takes its depth from the phone's LiDAR;
+            // phones expose every frame themselves.
             device: CaptureDevice {
                 auto_exposure: true,
                 tracked_poses: true,
+                depth_noise: Some(DepthNoise::PHONE_LIDAR),
             },
             extra: Map::new(),
         };

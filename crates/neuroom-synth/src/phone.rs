@@ -7,6 +7,7 @@
 use glam::{DMat3, DVec3};
 use neuroom_core::camera_effects::CameraEffect;
 use neuroom_core::depth_upsample::upsample_depth;
+use neuroom_core::formats::DepthNoise;
 use neuroom_core::image::{DepthImage, Image, RgbaImage};
 use neuroom_core::pose::Pose;
 use rand::{Rng, SeedableRng};
@@ -18,8 +19,9 @@ pub struct PhoneModel {
     /// Colour pixels per depth pixel along a row: an iPhone's 1920-pixel frames against its LiDAR's
     /// 256 columns. Kept as a ratio, so frames smaller than a phone's lose as much depth detail.
     pub depth_ratio: f64,
-    /// Depth noise standard deviation at 0 m and its growth per metre (LiDAR: about 1 cm at 1–2 m).
-    pub depth_noise: (f32, f32),
+    /// Depth noise standard deviation and its growth with distance (a LiDAR's); the degraded
+    /// captures declare it, so training knows how far their depth can be trusted.
+    pub depth_noise: DepthNoise,
     /// Beyond this range (metres) the LiDAR returns nothing.
     pub max_range: f32,
     /// A depth sample whose neighbours differ from it by more than this fraction of its depth lies on
@@ -47,7 +49,7 @@ impl Default for PhoneModel {
     fn default() -> Self {
         Self {
             depth_ratio: 7.5,
-            depth_noise: (0.005, 0.005),
+            depth_noise: DepthNoise::PHONE_LIDAR,
             max_range: 5.0,
             edge_jump: 0.1,
             dropout: 0.02,
@@ -133,7 +135,7 @@ impl PhoneModel {
                 if d <= 0.0 || d > self.max_range || on_edge || dropped {
                     continue;
                 }
-                let sigma = self.depth_noise.0 + self.depth_noise.1 * d;
+                let sigma = self.depth_noise.sigma_at(d);
                 let noisy = d + sigma * standard_normal(rng);
                 samples.set(c as u32, r as u32, noisy.max(0.01));
             }

@@ -20,6 +20,7 @@ use crate::progress::Progress;
 use crate::rng::Pcg32;
 use crate::room::TrainError;
 use glam::Vec3;
+use neuroom_core::formats::DepthNoise;
 use neuroom_field::checkpoint::{self, CheckpointError};
 use neuroom_field::clock::process_cpu_seconds;
 use neuroom_field::health::{Health, MAX_FAULTS_IN_A_ROW};
@@ -589,6 +590,7 @@ impl<'a> Trainer<'a> {
                 continue;
             }
             let distance = (rays.distance[i] > 0.0).then_some(rays.distance[i]);
+            let spread = depth_spread(distance, self.data.device.depth_noise);
             let normal = rays.normal(i);
             // |n · d|: a grazing ray crosses the NeuS transition over a longer stretch.
             let cos = if normal == Vec3::ZERO {
@@ -596,7 +598,9 @@ impl<'a> Trainer<'a> {
             } else {
                 normal.dot(d).abs().max(0.1)
             };
-            let shell = (5.0 / (inv_s * cos)).clamp(shell_min, shell_max);
+            let shell = (5.0 / (inv_s * cos))
+                .clamp(shell_min, shell_max)
+                .max(spread);
             let mut u = || rng.next_f32();
             match distance {
                 Some(dist) if !pick_empty => depth_guided(
@@ -640,7 +644,7 @@ impl<'a> Trainer<'a> {
                 b.appearance.push(appearance);
                 b.light.push(light);
                 b.zones
-                    .push(sample_zone(t, distance, pick_empty, cos, band));
+                    .push(sample_zone(t, distance, pick_empty, cos, band.max(spread)));
             }
             b.offsets.push(b.t.len());
             b.ray_frame.push(frame as u32);
@@ -818,6 +822,18 @@ fn budget_of(config: &TrainConfig, kind: ModelKind) -> &ModelBudget {
     match kind {
         ModelKind::Object => &config.object,
         ModelKind::Background => &config.background,
+    }
+}
+
+/// How far from a ray's observed distance `d` its surface may lie when the capture's depth is noisy:
+/// two standard deviations of the sensor's noise there (0 for exact depth or none). The depth-guided
+/// samples and the SDF's near band widen to it, so a sample the noise put in front of the true
+/// surface is not taken as free space (which would carve the surface wherever the depth reads long)
+/// and the samples still reach the surface wherever the depth reads short.
+fn depth_spread(d: Option<f32>, noise: Option<DepthNoise>) -> f32 {
+    match (d, noise) {
+        (Some(d), Some(noise)) => 2.0 * noise.sigma_at(d),
+        _ => 0.0,
     }
 }
 

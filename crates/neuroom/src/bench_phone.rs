@@ -26,8 +26,8 @@ pub struct PhoneBenchSpec {
     pub training: SuiteTraining,
     /// Seed of the degradation.
     pub seed: u64,
-    /// The locate pipeline (initial poses, no fit).
-    pub locate: LocateConfig,
+    /// The locate pipeline (initial poses, no fit); `None` compares the trainings only.
+    pub locate: Option<LocateConfig>,
 }
 
 /// One model's figures on the original room's views and mesh.
@@ -72,15 +72,22 @@ pub struct PhoneBenchReport {
     pub room: String,
     /// Per model.
     pub models: Vec<PhoneModelRow>,
-    /// Locate with the room's models.
-    pub locate_clean: LocateMean,
-    /// Locate (the same panoramas) with the phone copy's models.
-    pub locate_phone: LocateMean,
     /// The largest held-out PSNR loss of any model (dB; positive: the phone's is worse).
     pub worst_psnr_loss_db: f64,
     /// The largest Chamfer increase of any model (mm).
     pub worst_chamfer_increase_mm: f64,
-    /// Locate's IoU loss (points).
+    /// Locate with both rooms' models (absent when the spec asked for the trainings only).
+    pub locate: Option<PhoneLocate>,
+}
+
+/// Locate on the room's test panoramas with either room's models.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PhoneLocate {
+    /// With the room's models.
+    pub clean: LocateMean,
+    /// With the phone copy's models (the same panoramas).
+    pub phone: LocateMean,
+    /// IoU lost to the phone (points).
     pub iou_loss_points: f64,
 }
 
@@ -103,7 +110,7 @@ pub fn bench_phone(
         dirs: Vec::new(),
         cache: spec.cache.clone(),
         training: spec.training.clone(),
-        locate: spec.locate.clone(),
+        locate: spec.locate.clone().unwrap_or_default(),
         fit: None,
         effect: None,
     };
@@ -116,24 +123,14 @@ pub fn bench_phone(
     let phone = trained(&phone_room, "phone copy")?;
     note("scoring the phone copy's models on the room's views and meshes");
     let models = compare_models(&spec.room, &clean.models, &phone.models, &spec.training)?;
-    note("locating with the room's models");
-    let (_, locate_clean) = bench_locate(
-        &spec.room,
-        &clean.models,
-        &spec.locate,
-        None,
-        None,
-        &mut |_| {},
-    )?;
-    note("locating with the phone copy's models");
-    let (_, locate_phone) = bench_locate(
-        &phone_room,
-        &phone.models,
-        &spec.locate,
-        None,
-        None,
-        &mut |_| {},
-    )?;
+    let locate = match &spec.locate {
+        Some(config) => Some(locate_both(
+            [(&spec.room, &clean.models), (&phone_room, &phone.models)],
+            config,
+            note,
+        )?),
+        None => None,
+    };
     let worst = |f: &dyn Fn(&PhoneModelRow) -> Option<f64>| {
         models
             .iter()
@@ -144,10 +141,28 @@ pub fn bench_phone(
         room: room.name,
         worst_psnr_loss_db: worst(&|m| Some(m.clean.psnr_db? - m.phone.psnr_db?)),
         worst_chamfer_increase_mm: worst(&|m| Some(m.phone.chamfer_mm? - m.clean.chamfer_mm?)),
-        iou_loss_points: locate_clean.iou_percent - locate_phone.iou_percent,
         models,
-        locate_clean,
-        locate_phone,
+        locate,
+    })
+}
+
+/// Locate with the room's models (`rooms[0]`: room folder, model folder) and the phone copy's
+/// (`rooms[1]`).
+fn locate_both(
+    rooms: [(&Path, &Path); 2],
+    config: &LocateConfig,
+    note: &mut dyn FnMut(&str),
+) -> anyhow::Result<PhoneLocate> {
+    let mut mean = |(room, models): (&Path, &Path), whose: &str| {
+        note(&format!("locating with the {whose} models"));
+        bench_locate(room, models, config, None, None, &mut |_| {}).map(|(_, mean)| mean)
+    };
+    let clean = mean(rooms[0], "room's")?;
+    let phone = mean(rooms[1], "phone copy's")?;
+    Ok(PhoneLocate {
+        iou_loss_points: clean.iou_percent - phone.iou_percent,
+        clean,
+        phone,
     })
 }
 

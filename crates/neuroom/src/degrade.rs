@@ -67,6 +67,7 @@ pub fn degrade_room(
             device: CaptureDevice {
                 auto_exposure: true,
                 tracked_poses: true,
+                depth_noise: Some(model.depth_noise),
             },
             ..capture.clone()
         };

@@ -78,6 +78,8 @@ pub struct CaptureReport {
     pub auto_exposure: bool,
     /// The poses were tracked (training refines them).
     pub tracked_poses: bool,
+    /// Standard deviation of a depth sample at 1 m (metres), when the capture declares its noise.
+    pub depth_noise_at_1m: Option<f64>,
 }
 
 /// One test panorama.
@@ -301,6 +303,7 @@ fn inspect_capture(
         },
         auto_exposure: capture.device.auto_exposure,
         tracked_poses: capture.device.tracked_poses,
+        depth_noise_at_1m: capture.device.depth_noise.map(|n| n.at_0m + n.per_m),
     })
 }
 
@@ -588,6 +591,9 @@ impl std::fmt::Display for CaptureReport {
         .collect();
         if !device.is_empty() {
             write!(f, ", {}", device.join(", "))?;
+        }
+        if let Some(sigma) = self.depth_noise_at_1m {
+            write!(f, ", depth noise {:.1} mm at 1 m", sigma * 1000.0)?;
         }
         Ok(())
     }

@@ -36,6 +36,9 @@ pub struct PhoneArgs {
     /// the room's do not), `always` or `never`.
     #[arg(long, value_enum, default_value_t)]
     frame_corrections: FrameCorrectionsArg,
+    /// Compare the trainings only: no locate on the test panoramas.
+    #[arg(long)]
+    no_locate: bool,
     /// Also print the report as one JSON object.
     #[arg(long)]
     json: bool,
@@ -65,7 +68,7 @@ pub fn run(a: &PhoneArgs) -> anyhow::Result<()> {
             ..SuiteTraining::default()
         },
         seed: a.seed,
-        locate: LocateConfig::default(),
+        locate: (!a.no_locate).then(LocateConfig::default),
     };
     let report = bench_phone(&spec, &TrainBar::default(), &mut |note| {
         println!("== {note}")
@@ -74,17 +77,16 @@ pub fn run(a: &PhoneArgs) -> anyhow::Result<()> {
         println!("{:<14} room:  {}", m.name, figures(&m.clean));
         println!("{:<14} phone: {}", "", figures(&m.phone));
     }
+    if let Some(locate) = &report.locate {
+        println!("{}", describe_mean("locate, room's models", &locate.clean));
+        println!("{}", describe_mean("locate, phone's models", &locate.phone));
+    }
+    let iou = report.locate.as_ref().map_or(String::new(), |l| {
+        format!(", IoU {:.1} points", l.iou_loss_points)
+    });
     println!(
-        "{}",
-        describe_mean("locate, room's models", &report.locate_clean)
-    );
-    println!(
-        "{}",
-        describe_mean("locate, phone's models", &report.locate_phone)
-    );
-    println!(
-        "phone data cost: PSNR up to {:.2} dB, Chamfer up to {:+.2} mm, IoU {:.1} points",
-        report.worst_psnr_loss_db, report.worst_chamfer_increase_mm, report.iou_loss_points
+        "phone data cost: PSNR up to {:.2} dB, Chamfer up to {:+.2} mm{iou}",
+        report.worst_psnr_loss_db, report.worst_chamfer_increase_mm
     );
     if a.json {
         println!("{}", serde_json::to_string(&report)?);

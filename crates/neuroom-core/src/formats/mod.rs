@@ -26,7 +26,7 @@ pub use images::{
 pub use room::{BackgroundSpec, Room, RoomObject, parse_room, read_room, write_room};
 pub use tensor_file::canonical_safetensors;
 pub use transforms::{
-    Capture, CaptureDevice, Frame, parse_capture, parse_intrinsics, read_capture,
+    Capture, CaptureDevice, DepthNoise, Frame, parse_capture, parse_intrinsics, read_capture,
     read_intrinsics_file, write_capture,
 };
 

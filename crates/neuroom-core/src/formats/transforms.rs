@@ -51,9 +51,9 @@ pub struct Capture {
     pub extra: Map<String, Value>,
 }
 
-/// What a capture's camera did on its own, which training learns to undo per frame. A rendered or
-/// tripod capture has neither; a phone app's recording has both.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// What a capture's camera did on its own, which training learns to undo per frame, and how far its
+/// depth can be trusted. A rendered or tripod capture has none of it; a phone app's recording has all.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CaptureDevice {
     /// The camera exposed and white-balanced every frame itself (`auto_exposure`): colours differ
     /// between frames by a gain per channel.
@@ -61,6 +61,31 @@ pub struct CaptureDevice {
     /// The poses were tracked or reconstructed (`tracked_poses`: visual-inertial odometry, COLMAP),
     /// so they are off by the tracker's drift.
     pub tracked_poses: bool,
+    /// How noisy the depth maps are (`depth_noise`); `None`: exact, as a renderer writes them.
+    pub depth_noise: Option<DepthNoise>,
+}
+
+/// The standard deviation of a depth sample, growing with its distance: `at_0m + per_m · d` metres
+/// (`"depth_noise": {"at_0m": …, "per_m": …}` in `transforms.json`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthNoise {
+    /// Standard deviation at distance 0 (metres).
+    pub at_0m: f64,
+    /// Growth of the standard deviation per metre of distance.
+    pub per_m: f64,
+}
+
+impl DepthNoise {
+    /// A phone's LiDAR (iPhone / iPad Pro, ARKit scene depth): about 1 cm at 1 m, 1.5 cm at 2 m.
+    pub const PHONE_LIDAR: DepthNoise = DepthNoise {
+        at_0m: 0.005,
+        per_m: 0.005,
+    };
+
+    /// The standard deviation of a sample at distance `d` (metres).
+    pub fn sigma_at(&self, d: f32) -> f32 {
+        (self.at_0m + self.per_m * d as f64) as f32
+    }
 }
 
 /// One view of a capture.
@@ -119,6 +144,7 @@ pub fn parse_capture(file: &Path, bytes: &[u8]) -> FormatResult<Capture> {
         "camera_model",
         "auto_exposure",
         "tracked_poses",
+        "depth_noise",
     ];
     known.extend(INTRINSIC_KEYS.iter().chain(&UNSUPPORTED_DISTORTION));
     Ok(Capture {
@@ -133,9 +159,33 @@ pub fn parse_capture(file: &Path, bytes: &[u8]) -> FormatResult<Capture> {
         device: CaptureDevice {
             auto_exposure: top.optional("auto_exposure", as_bool)?.unwrap_or(false),
             tracked_poses: top.optional("tracked_poses", as_bool)?.unwrap_or(false),
+            depth_noise: read_depth_noise(&top)?,
         },
         extra: top.unknown_fields(&known),
     })
+}
+
+/// The optional `depth_noise` object: `{"at_0m": σ₀, "per_m": σ₁}`, both finite and ≥ 0.
+fn read_depth_noise(top: &JsonObject) -> FormatResult<Option<DepthNoise>> {
+    let Some(noise) = top.optional("depth_noise", Ok)? else {
+        return Ok(None);
+    };
+    let part = |key: &str| {
+        noise
+            .get(key)
+            .and_then(|v| as_number(v).ok())
+            .filter(|&x| x >= 0.0)
+            .ok_or_else(|| {
+                top.error(
+                    "depth_noise",
+                    format!("needs `{key}`, a number of metres ≥ 0 (e.g. {{\"at_0m\": 0.005, \"per_m\": 0.005}})"),
+                )
+            })
+    };
+    Ok(Some(DepthNoise {
+        at_0m: part("at_0m")?,
+        per_m: part("per_m")?,
+    }))
 }
 
 /// Reads the intrinsics of a photo: a JSON object with `transforms.json`'s top-level camera keys
@@ -311,6 +361,12 @@ pub fn write_capture(dir: impl AsRef<Path>, capture: &Capture) -> FormatResult<(
         if on {
             top.insert(key.into(), true.into());
         }
+    }
+    if let Some(noise) = device.depth_noise {
+        top.insert(
+            "depth_noise".into(),
+            serde_json::json!({"at_0m": noise.at_0m, "per_m": noise.per_m}),
+        );
     }
     for (k, v) in &capture.extra {
         top.entry(k.clone()).or_insert_with(|| v.clone());
