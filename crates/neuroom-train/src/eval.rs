@@ -443,10 +443,6 @@ mod tests {
     fn noisy_view(sigma: f32) -> FrameView {
         let (w, h) = (64usize, 48usize);
         let mut rng = Pcg32::new(7, 1);
-        let mut gaussian = || {
-            let (u, v) = (rng.next_f32().max(1e-7), rng.next_f32());
-            (-2.0 * u.ln()).sqrt() * (std::f32::consts::TAU * v).cos()
-        };
         let inside = |i: usize| (4..w - 4).contains(&(i % w)) && (4..h - 4).contains(&(i / w));
         FrameView {
             index: 0,
@@ -456,7 +452,7 @@ mod tests {
             rgb: (0..w * h)
                 .map(|i| {
                     if inside(i) {
-                        std::array::from_fn(|_| 0.5 + sigma * gaussian())
+                        std::array::from_fn(|_| 0.5 + sigma * rng.next_normal())
                     } else {
                         [0.0; 3]
                     }

@@ -40,6 +40,12 @@ impl Pcg32 {
         (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
     }
 
+    /// A standard normal draw (Box–Muller on two uniform draws).
+    pub fn next_normal(&mut self) -> f32 {
+        let (u, v) = (self.next_f32().max(1e-7), self.next_f32());
+        (-2.0 * u.ln()).sqrt() * (std::f32::consts::TAU * v).cos()
+    }
+
     /// Uniform integer in `0..n` (`n > 0`), by Lemire's multiply-shift (bias below 2⁻³² · n).
     pub fn below(&mut self, n: u32) -> u32 {
         ((self.next_u32() as u64 * n as u64) >> 32) as u32

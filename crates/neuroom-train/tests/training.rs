@@ -12,6 +12,7 @@ use neuroom_train::config::RefineWhen;
 use neuroom_train::dataset::{Aabb, Dataset, LoadOptions, Role};
 use neuroom_train::eval::{evaluate, extract_mesh};
 use neuroom_train::progress::Quiet;
+use neuroom_train::rng::Pcg32;
 use neuroom_train::room::{load_model_data, model_specs, with_threads};
 use neuroom_train::{ModelKind, ObjectStart, TrainConfig, Trainer, load_room_models, train_room};
 
@@ -281,27 +282,14 @@ fn a_phone_capture_trains_better_with_its_frames_corrected() {
     );
 }
 
-/// A standard normal draw for index `k` (splitmix64 hashed into Box–Muller), deterministic.
-fn normal_draw(k: u64) -> f32 {
-    let hash = |mut z: u64| {
-        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let (u, v) = (hash(2 * k).max(1e-7), hash(2 * k + 1));
-    (-2.0 * u.ln()).sqrt() * (std::f32::consts::TAU * v).cos()
-}
-
 #[test]
 fn noisy_depth_trains_better_when_the_capture_declares_its_noise() {
     let dir = tempfile::tempdir().unwrap();
     let (mut data, bounds) = column_data(dir.path());
     let noise = DepthNoise::PHONE_LIDAR;
-    for (i, d) in data.rays.distance.iter_mut().enumerate() {
-        if *d > 0.0 {
-            *d += noise.sigma_at(*d) * normal_draw(i as u64);
-        }
+    let mut rng = Pcg32::new(3, 0);
+    for d in data.rays.distance.iter_mut().filter(|d| **d > 0.0) {
+        *d += noise.sigma_at(*d) * rng.next_normal();
     }
     let aug = Augmentation::default();
     let mut run = |declared: Option<DepthNoise>| {

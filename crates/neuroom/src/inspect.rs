@@ -303,7 +303,10 @@ fn inspect_capture(
         },
         auto_exposure: capture.device.auto_exposure,
         tracked_poses: capture.device.tracked_poses,
-        depth_noise_at_1m: capture.device.depth_noise.map(|n| n.at_0m + n.per_m),
+        depth_noise_at_1m: capture
+            .device
+            .depth_noise
+            .map(|n| f64::from(n.sigma_at(1.0))),
     })
 }
 
