@@ -9,11 +9,23 @@ use crate::params::Params;
 use crate::real::Real;
 use rayon::prelude::*;
 
-/// Chunks per rayon task in [`NeusField::forward`]: the hash levels run outermost over a block, so a level's
-/// table is read into L2 once per block rather than once per chunk (8 192 points make each of the 8 corner
-/// reads of a point mostly a cache hit for a 2^15-entry table; measured: 32 chunks beat 16 by ~15 % in
-/// the forward pass, 64 gained nothing more).
+/// Most chunks per rayon task in [`NeusField::forward`]: the hash levels run outermost over a block, so a
+/// level's table is read into L2 once per block rather than once per chunk (8 192 points make each of the
+/// 8 corner reads of a point mostly a cache hit for a 2^15-entry table; measured: 32 chunks beat 16 by
+/// ~15 % in the forward pass, 64 gained nothing more).
 const BLOCK: usize = 32;
+
+/// Rayon tasks per thread a forward pass is cut into at least (when it has that many chunks): a batch
+/// of a few blocks, as a training step's SDF-only or eikonal batch, would otherwise run on one or two
+/// threads while the others wait.
+const TASKS_PER_THREAD: usize = 2;
+
+/// Chunks per task of a forward pass over `count` chunks on `threads` threads.
+fn block_size(count: usize, threads: usize) -> usize {
+    count
+        .div_ceil(TASKS_PER_THREAD * threads.max(1))
+        .clamp(1, BLOCK)
+}
 
 /// What a batched forward pass saves for its backward pass.
 #[derive(Clone, Debug, Default)]
@@ -72,11 +84,12 @@ impl<T: Real> NeusField<T> {
         tape.used = count;
         self.pack_into(&mut tape.pack);
         let pack = &tape.pack;
+        let size = block_size(count, rayon::current_num_threads());
         tape.chunks[..count]
-            .par_chunks_mut(BLOCK)
+            .par_chunks_mut(size)
             .enumerate()
             .for_each(|(b, block)| {
-                let first = b * BLOCK;
+                let first = b * size;
                 let range = |k: usize| {
                     let s = (first + k) * CHUNK;
                     (s, (s + CHUNK).min(points.len()))
@@ -223,4 +236,20 @@ fn eikonal_loss<T: Real>(f: &[T], h: T, weight: T) -> (T, Vec<T>) {
         }
     }
     (loss, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::block_size;
+
+    #[test]
+    fn small_batches_are_cut_into_tasks_for_every_thread() {
+        // A training step's SDF-only batch (32 chunks) and eikonal batch (24) on 2 threads.
+        assert_eq!(block_size(32, 2), 8);
+        assert_eq!(block_size(24, 2), 6);
+        // Large batches keep whole blocks; tiny ones one chunk per task.
+        assert_eq!(block_size(1_000, 2), super::BLOCK);
+        assert_eq!(block_size(3, 16), 1);
+        assert_eq!(block_size(0, 4), 1);
+    }
 }

@@ -2,6 +2,7 @@
 
 use crate::augment::vendored_env_maps;
 use crate::losses::LossWeights;
+use crate::ray_choice::RayChoice;
 use neuroom_field::kernel::Precision;
 use neuroom_field::{Group, NUM_GROUPS};
 use serde::{Deserialize, Serialize};
@@ -124,6 +125,10 @@ pub struct TrainConfig {
     /// model renders in the arithmetic it was trained in. Left out while `f32`, as above.
     #[serde(default, skip_serializing_if = "Precision::is_f32")]
     pub mlp_precision: Precision,
+    /// How a step chooses its surface rays (uniformly, or guided by the colour error). Left out while
+    /// uniform, as above.
+    #[serde(default, skip_serializing_if = "RayChoice::is_uniform")]
+    pub ray_choice: RayChoice,
 }
 
 /// Which frame corrections a model learns.
@@ -232,6 +237,7 @@ impl Default for TrainConfig {
             object_start: ObjectStart::Box,
             frame_refinement: FrameRefinement::default(),
             mlp_precision: Precision::F32,
+            ray_choice: RayChoice::default(),
         }
     }
 }

@@ -5,6 +5,7 @@
 //! - [`losses`]: colour, depth, mask, SDF-from-depth terms; [`trainer`]: the loop of one model, resumable.
 //! - [`augment`] + [`lighting`]: HDR lighting augmentation and light codes.
 //! - [`room`]: `train_room` and the model directory of a room with its reader.
+//! - [`ray_choice`]: which rays a step trains on (uniform or guided by the colour error).
 //! - [`frame_corrections`]: per-frame colour gains and pose corrections (phone captures).
 //! - [`eval`]: held-out PSNR, depth error, Chamfer, light-code check; [`mod@bench`]: timed runs with reports.
 
@@ -18,6 +19,7 @@ pub mod lighting;
 pub mod losses;
 pub mod normals;
 pub mod progress;
+pub mod ray_choice;
 pub mod rng;
 pub mod room;
 pub mod symmetry;

@@ -17,6 +17,7 @@ use crate::dataset::{Aabb, Dataset};
 use crate::frame_corrections::{Corrected, FrameCorrections};
 use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sample_zone, sdf_loss};
 use crate::progress::Progress;
+use crate::ray_choice::ErrorMap;
 use crate::rng::Pcg32;
 use crate::room::TrainError;
 use glam::Vec3;
@@ -160,6 +161,10 @@ struct Batch {
     eikonal: Vec<[f32; 3]>,
     /// Training frame of each ray.
     ray_frame: Vec<u32>,
+    /// Index of each ray in the pool of surface rays (`u32::MAX` for an empty ray), for the error map.
+    ray_pool: Vec<u32>,
+    /// Weight of each ray's losses (importance-weighted ray choice; else 1).
+    ray_weight: Vec<f32>,
     /// `∂loss/∂x` of the surface rays' samples, when poses are refined.
     d_points: Vec<[f32; 3]>,
 }
@@ -184,11 +189,12 @@ pub struct Trainer<'a> {
     diag: f32,
     surface_rays: Vec<u32>,
     empty_rays: Vec<u32>,
+    /// Colour errors of the surface rays, when the ray choice is guided by them.
+    errors: Option<ErrorMap>,
     batch: Batch,
     tape: Tape<f32>,
     empty_tape: Tape<f32>,
     eikonal_tape: Tape<f32>,
-    ray_tape: RayTape<f32>,
 }
 
 impl<'a> Trainer<'a> {
@@ -220,6 +226,7 @@ impl<'a> Trainer<'a> {
         let field = NeusField::new(fc);
         let adam = Adam::new(AdamConfig::default(), &field.params);
         let frames = corrections_for(data, config);
+        let errors = None;
         let state = TrainState {
             step: 0,
             total_steps: budget.steps,
@@ -239,6 +246,7 @@ impl<'a> Trainer<'a> {
             state,
             lights,
             frames,
+            errors,
         )
     }
 
@@ -275,6 +283,14 @@ impl<'a> Trainer<'a> {
                 data.origins.len()
             )));
         }
+        let errors = match meta.trainer.get("ray_errors").filter(|v| !v.is_null()) {
+            Some(v) => Some(
+                serde_json::from_value::<ErrorMap>(v.clone())
+                    .map_err(|e| bad(format!("trainer.ray_errors: {e}")))?
+                    .restored(),
+            ),
+            None => None,
+        };
         if field.config().light_codes != lights.names.len().max(1) {
             return Err(bad(format!(
                 "{} light codes, this run has {}",
@@ -292,6 +308,7 @@ impl<'a> Trainer<'a> {
             state,
             lights,
             frames,
+            errors,
         ))
     }
 
@@ -306,6 +323,7 @@ impl<'a> Trainer<'a> {
         state: TrainState,
         lights: LightCodes,
         frames: Option<FrameCorrections>,
+        errors: Option<ErrorMap>,
     ) -> Self {
         let fc = field.config();
         let bounds = Aabb {
@@ -323,6 +341,11 @@ impl<'a> Trainer<'a> {
             target.push(i as u32);
         }
         let grads = Params::zeros_like(&field.params);
+        let guided = !config.ray_choice.is_uniform() && !surface_rays.is_empty();
+        let errors = errors
+            .filter(|e| e.rays() == surface_rays.len())
+            .or_else(|| guided.then(|| ErrorMap::new(surface_rays.len())))
+            .filter(|_| guided);
         Self {
             data,
             augmentation,
@@ -339,11 +362,11 @@ impl<'a> Trainer<'a> {
             diag,
             surface_rays,
             empty_rays,
+            errors,
             batch: Batch::default(),
             tape: Tape::default(),
             empty_tape: Tape::default(),
             eikonal_tape: Tape::default(),
-            ray_tape: RayTape::default(),
         }
     }
 
@@ -536,6 +559,8 @@ impl<'a> Trainer<'a> {
         }
         b.offsets.clear();
         b.ray_frame.clear();
+        b.ray_pool.clear();
+        b.ray_weight.clear();
         b.points.clear();
         b.dirs.clear();
         b.appearance.clear();
@@ -564,12 +589,17 @@ impl<'a> Trainer<'a> {
             if r == batch - n_empty {
                 b.full = b.t.len();
             }
-            let pool = if pick_empty {
-                &self.empty_rays
+            let drawn = if pick_empty {
+                let k = rng.below(self.empty_rays.len() as u32) as usize;
+                PoolDraw::new(self.empty_rays[k], u32::MAX, 1.0)
+            } else if let Some(map) = &self.errors {
+                let d = map.draw(&self.config.ray_choice, rng);
+                PoolDraw::new(self.surface_rays[d.index], d.index as u32, d.weight)
             } else {
-                &self.surface_rays
+                let k = rng.below(self.surface_rays.len() as u32);
+                PoolDraw::new(self.surface_rays[k as usize], k, 1.0)
             };
-            let i = pool[rng.below(pool.len() as u32) as usize] as usize;
+            let i = drawn.ray;
             let frame = rays.frame[i] as usize;
             let (o, d) = match self.frames.as_ref().filter(|f| f.corrected.pose) {
                 Some(f) => (
@@ -648,6 +678,8 @@ impl<'a> Trainer<'a> {
             }
             b.offsets.push(b.t.len());
             b.ray_frame.push(frame as u32);
+            b.ray_pool.push(drawn.pool);
+            b.ray_weight.push(drawn.weight);
             b.targets.push(RayTarget {
                 rgb: (!pick_empty).then_some(rgb),
                 distance: distance.filter(|_| !pick_empty),
@@ -663,7 +695,8 @@ impl<'a> Trainer<'a> {
     }
 
     /// Renders every ray of the batch, scores it, and writes the sample gradients; returns the loss parts
-    /// and `∂loss/∂inv_s`.
+    /// and `∂loss/∂inv_s`. Rays are rendered in parallel tasks of [`RAYS_PER_TASK`]; what they add up to
+    /// is summed afterwards in ray order, so the result does not depend on the thread count.
     fn ray_losses(&mut self) -> (LossParts, f32) {
         let b = &mut self.batch;
         let w = self.config.weights;
@@ -681,42 +714,32 @@ impl<'a> Trainer<'a> {
             mask: w.mask / rays.max(1) as f32,
         };
         let inv_s = self.field.inv_s();
+        let gains = self
+            .frames
+            .as_ref()
+            .filter(|f| f.corrected.colour)
+            .map(|f| (0..f.frames()).map(|k| f.gain(k)).collect::<Vec<_>>());
+        let scores = score_rays(b, inv_s, &scales, gains.as_deref());
         let mut parts = LossParts::default();
         let mut d_inv_s = 0.0;
         let mut frames = self.frames.as_mut().filter(|f| f.corrected.colour);
-        let (rgb3, _) = b.rgb.as_chunks::<3>();
-        let (d_rgb3, _) = b.d_rgb.as_chunks_mut::<3>();
-        for (r, target) in b.targets.iter().enumerate() {
-            let (s, e) = (b.offsets[r], b.offsets[r + 1]);
-            let mut out = render_ray(
-                &b.t[s..e],
-                &b.sdf[s..e],
-                &rgb3[s..e],
-                inv_s,
-                &mut self.ray_tape,
-            );
-            let frame = b.ray_frame[r] as usize;
-            let gain = frames.as_ref().map(|f| f.gain(frame));
-            if let Some(gain) = gain {
-                out.rgb = std::array::from_fn(|k| gain[k] * out.rgb[k]);
+        let mut errors = self.errors.as_mut();
+        for (r, score) in scores.iter().enumerate() {
+            let p = score.parts;
+            if let Some(map) = errors.as_deref_mut().filter(|_| b.targets[r].rgb.is_some()) {
+                map.observe(b.ray_pool[r] as usize, p[3]);
             }
-            let (p, mut g) = ray_loss(&out, target, &scales);
-            if let (Some(gain), Some(frames)) = (gain, frames.as_deref_mut()) {
-                frames.add_colour_grad(frame, out.rgb, g.rgb);
-                g.rgb = std::array::from_fn(|k| gain[k] * g.rgb[k]);
+            if let Some(frames) = frames.as_deref_mut() {
+                frames.add_colour_grad(b.ray_frame[r] as usize, score.rgb, score.d_rgb);
             }
             parts.color += p[0];
             parts.depth += p[1];
             parts.mask += p[2];
             parts.color_mse += p[3] / with_rgb as f32;
-            d_inv_s += render_ray_backward(
-                &b.sdf[s..e],
-                inv_s,
-                &mut self.ray_tape,
-                &g,
-                &mut b.d_sdf[s..e],
-                &mut d_rgb3[s..e],
-            );
+            d_inv_s += score.d_inv_s;
+        }
+        if let Some(map) = errors {
+            map.commit();
         }
         (parts, d_inv_s)
     }
@@ -738,15 +761,20 @@ impl<'a> Trainer<'a> {
             .count()
             .max(1) as f32;
         let mut loss = 0.0;
-        for ((zone, s), d) in b.zones.iter().zip(&b.sdf).zip(b.d_sdf.iter_mut()) {
-            let scale = match zone {
-                SampleZone::Near { .. } => w.sdf_near / near,
-                SampleZone::Free { .. } | SampleZone::Empty => w.sdf_free / free,
-                SampleZone::Unknown => continue,
-            };
-            let (l, g) = sdf_loss(*s, *zone);
-            loss += scale * l;
-            *d += scale * g;
+        for (r, ray) in b.offsets.windows(2).enumerate() {
+            let weight = b.ray_weight[r];
+            for k in ray[0]..ray[1] {
+                let zone = b.zones[k];
+                let scale = match zone {
+                    SampleZone::Near { .. } => w.sdf_near / near,
+                    SampleZone::Free { .. } | SampleZone::Empty => w.sdf_free / free,
+                    SampleZone::Unknown => continue,
+                };
+                let scale = weight * scale;
+                let (l, g) = sdf_loss(b.sdf[k], zone);
+                loss += scale * l;
+                b.d_sdf[k] += scale * g;
+            }
         }
         loss
     }
@@ -784,7 +812,15 @@ impl<'a> Trainer<'a> {
         let tmp = dir.with_extension("tmp");
         let old = dir.with_extension("old");
         let _ = std::fs::remove_dir_all(&tmp);
-        checkpoint::save(&tmp, &self.field, Some(&self.adam), self.trainer_json())?;
+        let mut trainer = self.trainer_json();
+        if let Some(errors) = &self.errors {
+            trainer["ray_errors"] =
+                serde_json::to_value(errors).map_err(|e| CheckpointError::Tensors {
+                    path: tmp.join("config.json"),
+                    message: format!("trainer.ray_errors: {e}"),
+                })?;
+        }
+        checkpoint::save(&tmp, &self.field, Some(&self.adam), trainer)?;
         if dir.exists() {
             let _ = std::fs::remove_dir_all(&old);
             std::fs::rename(dir, &old).map_err(|e| io(dir, e))?;
@@ -794,7 +830,8 @@ impl<'a> Trainer<'a> {
         Ok(())
     }
 
-    /// What the checkpoint's `trainer` field holds: the state, the light codes and the kind.
+    /// What a model's `trainer` field holds: the state, the light codes, the kind and the frame
+    /// corrections (a checkpoint adds the ray choice's error map, see [`Trainer::save`]).
     pub fn trainer_json(&self) -> serde_json::Value {
         serde_json::json!({
             "state": self.state,
@@ -802,6 +839,168 @@ impl<'a> Trainer<'a> {
             "kind": self.kind,
             "frames": self.frames,
         })
+    }
+}
+
+/// Rays rendered and scored by one parallel task of [`Trainer::ray_losses`].
+const RAYS_PER_TASK: usize = 64;
+
+/// What rendering and scoring one ray gives besides its samples' gradients.
+#[derive(Clone, Copy, Debug, Default)]
+struct RayScore {
+    /// Weighted colour, depth and mask losses and the unweighted squared colour error.
+    parts: [f32; 4],
+    /// `∂loss/∂inv_s` of the ray.
+    d_inv_s: f32,
+    /// The rendered colour after the frame's gain.
+    rgb: [f32; 3],
+    /// `∂loss/∂rgb` before the gain (what the frame's gain learns from).
+    d_rgb: [f32; 3],
+}
+
+/// Renders and scores every ray of `b` in parallel tasks, writing each sample's gradients into
+/// `b.d_sdf` and `b.d_rgb`; `gains` holds each frame's colour gain when frames have one.
+fn score_rays(
+    b: &mut Batch,
+    inv_s: f32,
+    scales: &RayScales,
+    gains: Option<&[[f32; 3]]>,
+) -> Vec<RayScore> {
+    use rayon::prelude::*;
+    let Batch {
+        offsets,
+        t,
+        sdf,
+        rgb,
+        targets,
+        ray_frame,
+        ray_weight,
+        d_sdf,
+        d_rgb,
+        ..
+    } = b;
+    let rays = targets.len();
+    let (rgb3, _) = rgb.as_chunks::<3>();
+    let mut d_sdf = &mut d_sdf[..];
+    let mut d_rgb3 = d_rgb.as_chunks_mut::<3>().0;
+    let mut tasks = Vec::with_capacity(rays.div_ceil(RAYS_PER_TASK));
+    for first in (0..rays).step_by(RAYS_PER_TASK) {
+        let last = (first + RAYS_PER_TASK).min(rays);
+        let len = offsets[last] - offsets[first];
+        let (sdf_part, sdf_rest) = std::mem::take(&mut d_sdf).split_at_mut(len);
+        let (rgb_part, rgb_rest) = std::mem::take(&mut d_rgb3).split_at_mut(len);
+        (d_sdf, d_rgb3) = (sdf_rest, rgb_rest);
+        tasks.push((first..last, sdf_part, rgb_part));
+    }
+    let inputs = RayInputs {
+        t,
+        sdf,
+        rgb: rgb3,
+        inv_s,
+        scales,
+        gains,
+    };
+    tasks
+        .into_par_iter()
+        .map(|(range, d_sdf, d_rgb)| {
+            let base = offsets[range.start];
+            let mut tape = RayTape::default();
+            range
+                .map(|r| {
+                    let (s, e) = (offsets[r], offsets[r + 1]);
+                    let (frame, weight) = (ray_frame[r] as usize, ray_weight[r]);
+                    let ray = RayRef {
+                        samples: s..e,
+                        frame,
+                        weight,
+                        target: &targets[r],
+                    };
+                    let d = (
+                        &mut d_sdf[s - base..e - base],
+                        &mut d_rgb[s - base..e - base],
+                    );
+                    score_ray(&inputs, &ray, &mut tape, d)
+                })
+                .collect::<Vec<_>>()
+        })
+        .flatten()
+        .collect()
+}
+
+/// The sample values every ray of a step reads.
+struct RayInputs<'a> {
+    t: &'a [f32],
+    sdf: &'a [f32],
+    rgb: &'a [[f32; 3]],
+    inv_s: f32,
+    scales: &'a RayScales,
+    gains: Option<&'a [[f32; 3]]>,
+}
+
+/// One ray of a step: its samples, frame, loss weight and target.
+struct RayRef<'a> {
+    samples: std::ops::Range<usize>,
+    frame: usize,
+    weight: f32,
+    target: &'a RayTarget,
+}
+
+/// Renders and scores one ray, writing its samples' gradients into `d_sdf` and `d_rgb`.
+fn score_ray(
+    inputs: &RayInputs,
+    ray: &RayRef,
+    tape: &mut RayTape<f32>,
+    (d_sdf, d_rgb): (&mut [f32], &mut [[f32; 3]]),
+) -> RayScore {
+    let s = ray.samples.clone();
+    let sdf = &inputs.sdf[s.clone()];
+    let mut out = render_ray(
+        &inputs.t[s.clone()],
+        sdf,
+        &inputs.rgb[s],
+        inputs.inv_s,
+        tape,
+    );
+    let gain = inputs.gains.map(|g| g[ray.frame]);
+    if let Some(gain) = gain {
+        out.rgb = std::array::from_fn(|k| gain[k] * out.rgb[k]);
+    }
+    let scales = RayScales {
+        color: ray.weight * inputs.scales.color,
+        depth: ray.weight * inputs.scales.depth,
+        mask: ray.weight * inputs.scales.mask,
+    };
+    let (parts, mut g) = ray_loss(&out, ray.target, &scales);
+    let d_rgb_out = g.rgb;
+    if let Some(gain) = gain {
+        g.rgb = std::array::from_fn(|k| gain[k] * g.rgb[k]);
+    }
+    let d_inv_s = render_ray_backward(sdf, inputs.inv_s, tape, &g, d_sdf, d_rgb);
+    RayScore {
+        parts,
+        d_inv_s,
+        rgb: out.rgb,
+        d_rgb: d_rgb_out,
+    }
+}
+
+/// A training ray drawn from one of the two pools.
+struct PoolDraw {
+    /// Index into the dataset's rays.
+    ray: usize,
+    /// Index into the pool of surface rays (`u32::MAX` for an empty ray).
+    pool: u32,
+    /// Weight of the ray's losses.
+    weight: f32,
+}
+
+impl PoolDraw {
+    fn new(ray: u32, pool: u32, weight: f32) -> Self {
+        Self {
+            ray: ray as usize,
+            pool,
+            weight,
+        }
     }
 }
 

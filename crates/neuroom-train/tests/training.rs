@@ -12,6 +12,7 @@ use neuroom_train::config::RefineWhen;
 use neuroom_train::dataset::{Aabb, Dataset, LoadOptions, Role};
 use neuroom_train::eval::{evaluate, extract_mesh};
 use neuroom_train::progress::Quiet;
+use neuroom_train::ray_choice::RayChoice;
 use neuroom_train::rng::Pcg32;
 use neuroom_train::room::{load_model_data, model_specs, with_threads};
 use neuroom_train::{ModelKind, ObjectStart, TrainConfig, Trainer, load_room_models, train_room};
@@ -355,30 +356,38 @@ fn two_runs_with_the_same_seed_and_two_threads_are_bit_identical() {
 fn resuming_from_a_checkpoint_continues_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let data = ball_data(&dir.path().join("capture"));
-    let mut config = quick_config(20);
-    config.object.batch_rays = 128;
-    let aug = Augmentation::default();
-    with_threads(1, || {
-        let mut straight = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
-        straight.run("straight", None, &Quiet).unwrap();
+    let guided = RayChoice {
+        guided_share: 0.5,
+        importance_weighted: true,
+    };
+    for choice in [RayChoice::default(), guided] {
+        let mut config = quick_config(20);
+        config.object.batch_rays = 128;
+        config.ray_choice = choice;
+        let aug = Augmentation::default();
+        with_threads(1, || {
+            let mut straight = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
+            straight.run("straight", None, &Quiet).unwrap();
 
-        let ckpt = dir.path().join("ckpt");
-        let mut first = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
-        for _ in 0..10 {
-            first.step();
-        }
-        first.save(&ckpt).unwrap();
-        drop(first);
-        let mut second = Trainer::resume(&data, &aug, &config, ModelKind::Object, &ckpt).unwrap();
-        assert_eq!(second.state.step, 10);
-        second.run("second", None, &Quiet).unwrap();
-        assert_eq!(second.state.step, 20);
-        assert_eq!(second.state.rng, straight.state.rng);
-        assert!(
-            second.field.params == straight.field.params,
-            "parameters differ after resuming"
-        );
-    });
+            let ckpt = dir.path().join("ckpt");
+            let mut first = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
+            for _ in 0..10 {
+                first.step();
+            }
+            first.save(&ckpt).unwrap();
+            drop(first);
+            let mut second =
+                Trainer::resume(&data, &aug, &config, ModelKind::Object, &ckpt).unwrap();
+            assert_eq!(second.state.step, 10);
+            second.run("second", None, &Quiet).unwrap();
+            assert_eq!(second.state.step, 20);
+            assert_eq!(second.state.rng, straight.state.rng);
+            assert!(
+                second.field.params == straight.field.params,
+                "parameters differ after resuming ({choice:?})"
+            );
+        });
+    }
 }
 
 #[test]

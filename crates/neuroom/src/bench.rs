@@ -134,9 +134,9 @@ pub fn describe_render(r: &neuroom_render::bench::RenderBenchReport) -> String {
 pub fn train(
     room: &std::path::Path,
     model: &str,
-    options: &crate::train::TrainOptions,
+    config: &neuroom_train::TrainConfig,
 ) -> anyhow::Result<neuroom_train::bench::ModelBenchReport> {
-    let config = options.config();
+    let config = config.clone();
     let progress = neuroom_train::progress::Bar::default();
     Ok(if model == "background" {
         neuroom_train::bench::bench_background(room, &config, &progress)?

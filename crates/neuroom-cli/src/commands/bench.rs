@@ -210,6 +210,11 @@ struct TrainArgs {
     /// Arithmetic of the networks' products.
     #[arg(long, value_enum, default_value_t)]
     mlp_precision: MlpPrecisionArg,
+    /// A JSON object of training-configuration fields to set over the others (`TrainConfig`'s serde
+    /// names; nested objects merge key by key), for experiments:
+    /// `{"warmup_steps": 50, "object": {"batch_rays": 4096}}`.
+    #[arg(long, value_name = "FILE")]
+    set: Option<PathBuf>,
     /// Print the report as JSON after the text.
     #[arg(long)]
     json: bool,
@@ -260,6 +265,19 @@ struct FieldArgs {
     mlp_precision: MlpPrecisionArg,
 }
 
+/// `config` with the fields of the JSON object in `path` set over it.
+fn train_overrides(
+    config: &neuroom::train::TrainConfig,
+    path: &std::path::Path,
+) -> anyhow::Result<neuroom::train::TrainConfig> {
+    use anyhow::Context;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let patch: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}", path.display()))?;
+    neuroom::train::with_overrides(config, &patch).with_context(|| format!("{}", path.display()))
+}
+
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.which {
@@ -286,19 +304,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         }
         Which::Train(a) => {
-            let report = bench::train(
-                &a.room,
-                &a.model,
-                &neuroom::train::TrainOptions {
-                    object_steps: a.steps,
-                    background_steps: a.steps,
-                    object_seconds: a.seconds,
-                    background_seconds: a.seconds,
-                    cpu_clock: a.cpu_clock,
-                    mlp_precision: a.mlp_precision.into(),
-                    ..Default::default()
-                },
-            )?;
+            let options = neuroom::train::TrainOptions {
+                object_steps: a.steps,
+                background_steps: a.steps,
+                object_seconds: a.seconds,
+                background_seconds: a.seconds,
+                cpu_clock: a.cpu_clock,
+                mlp_precision: a.mlp_precision.into(),
+                ..Default::default()
+            };
+            let mut config = options.config();
+            if let Some(path) = &a.set {
+                config = train_overrides(&config, path)?;
+            }
+            let report = bench::train(&a.room, &a.model, &config)?;
             println!("{}", bench::describe_train(&report));
             if a.json {
                 println!("{}", serde_json::to_string(&report)?);
