@@ -73,6 +73,54 @@ pub fn render_view(
     options: &RenderOptions,
     wanted: &dyn Fn(usize) -> bool,
 ) -> Rendered {
+    let surfaces = view_surfaces(field, view, bounds, options, wanted);
+    shade_view(field, view, &surfaces, light, options)
+}
+
+/// Where the rays of a view's selected pixels first meet the model's surface, batch by batch. The
+/// geometry does not depend on the light code, so one search serves renders under every code.
+#[derive(Clone, Debug, Default)]
+pub struct ViewSurfaces {
+    batches: Vec<Vec<Hit>>,
+}
+
+/// The surfaces the pixels of `view` that `wanted` selects see, from `field` inside `bounds`.
+pub fn view_surfaces(
+    field: &NeusField<f32>,
+    view: &FrameView,
+    bounds: &Aabb,
+    options: &RenderOptions,
+    wanted: &dyn Fn(usize) -> bool,
+) -> ViewSurfaces {
+    let n = view.rgb.len();
+    let mut tape = Tape::default();
+    let batches = (0..n)
+        .step_by(RAYS_PER_BATCH)
+        .map(|start| {
+            let end = (start + RAYS_PER_BATCH).min(n);
+            let rays: Vec<(usize, Vec3, f32, f32)> = (start..end)
+                .filter(|&i| wanted(i))
+                .filter_map(|i| {
+                    let d = view.direction(i);
+                    let (near, far) = bounds.intersect(view.origin(), d)?;
+                    let near = near.max(options.near);
+                    (far > near).then_some((i, d, near, far))
+                })
+                .collect();
+            find_surfaces(field, view.origin(), &rays, options, &mut tape)
+        })
+        .collect();
+    ViewSurfaces { batches }
+}
+
+/// Renders `view` where `surfaces` found the model, with light code `light` (other pixels black).
+pub fn shade_view(
+    field: &NeusField<f32>,
+    view: &FrameView,
+    surfaces: &ViewSurfaces,
+    light: u32,
+    options: &RenderOptions,
+) -> Rendered {
     let n = view.rgb.len();
     let mut out = Rendered {
         rgb: vec![[0.0; 3]; n],
@@ -80,22 +128,11 @@ pub fn render_view(
         opacity: vec![0.0; n],
     };
     let mut tape = Tape::default();
-    for start in (0..n).step_by(RAYS_PER_BATCH) {
-        let end = (start + RAYS_PER_BATCH).min(n);
-        let rays: Vec<(usize, Vec3, f32, f32)> = (start..end)
-            .filter(|&i| wanted(i))
-            .filter_map(|i| {
-                let d = view.direction(i);
-                let (near, far) = bounds.intersect(view.origin(), d)?;
-                let near = near.max(options.near);
-                (far > near).then_some((i, d, near, far))
-            })
-            .collect();
-        let hits = find_surfaces(field, view.origin(), &rays, options, &mut tape);
+    for hits in &surfaces.batches {
         shade(
             field,
             view.origin(),
-            &hits,
+            hits,
             light,
             options,
             &mut tape,
@@ -372,11 +409,12 @@ fn light_code_checks(
     let mut plain = vec![ViewScore::default(); augmentation.len()];
     for view in picked {
         let surface = |i: usize| view.class[i] == PixelClass::Surface;
-        let code_0 = render_view(field, view, bounds, 0, options, &surface);
+        let surfaces = view_surfaces(field, view, bounds, options, &surface);
+        let code_0 = shade_view(field, view, &surfaces, 0, options);
         for k in 0..augmentation.len() {
             let target = relit_target(view, augmentation, k);
             let code = (first_augmented + k) as u32;
-            let with_code = render_view(field, view, bounds, code, options, &surface);
+            let with_code = shade_view(field, view, &surfaces, code, options);
             coded[k].add(color_error(view, &with_code.rgb, &target));
             plain[k].add(color_error(view, &code_0.rgb, &target));
         }
