@@ -241,12 +241,14 @@ impl<'a> Trainer<'a> {
             augmentation,
             config,
             kind,
-            field,
-            adam,
-            state,
-            lights,
-            frames,
-            errors,
+            RunParts {
+                field,
+                adam,
+                state,
+                lights,
+                frames,
+                errors,
+            },
         )
     }
 
@@ -303,28 +305,32 @@ impl<'a> Trainer<'a> {
             augmentation,
             config,
             kind,
+            RunParts {
+                field,
+                adam,
+                state,
+                lights,
+                frames,
+                errors,
+            },
+        ))
+    }
+
+    fn assemble(
+        data: &'a Dataset,
+        augmentation: &'a Augmentation,
+        config: &TrainConfig,
+        kind: ModelKind,
+        parts: RunParts,
+    ) -> Self {
+        let RunParts {
             field,
             adam,
             state,
             lights,
             frames,
             errors,
-        ))
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn assemble(
-        data: &'a Dataset,
-        augmentation: &'a Augmentation,
-        config: &TrainConfig,
-        kind: ModelKind,
-        field: NeusField<f32>,
-        adam: Adam,
-        state: TrainState,
-        lights: LightCodes,
-        frames: Option<FrameCorrections>,
-        errors: Option<ErrorMap>,
-    ) -> Self {
+        } = parts;
         let fc = field.config();
         let bounds = Aabb {
             min: fc.bounds_min,
@@ -982,6 +988,16 @@ fn score_ray(
         rgb: out.rgb,
         d_rgb: d_rgb_out,
     }
+}
+
+/// What a run carries from step to step, fresh or restored from a checkpoint.
+struct RunParts {
+    field: NeusField<f32>,
+    adam: Adam,
+    state: TrainState,
+    lights: LightCodes,
+    frames: Option<FrameCorrections>,
+    errors: Option<ErrorMap>,
 }
 
 /// A training ray drawn from one of the two pools.
