@@ -66,7 +66,7 @@ pub struct ErrorMap {
     /// Running sums of `errors` (rebuilt by [`ErrorMap::commit`]).
     #[serde(skip)]
     cumulative: Vec<f64>,
-    /// Errors observed in the current step: sum and count per touched group.
+    /// `(group, squared colour error)` of every ray observed in the current step.
     #[serde(skip)]
     pending: Vec<(u32, f32)>,
 }

@@ -226,7 +226,6 @@ impl<'a> Trainer<'a> {
         let field = NeusField::new(fc);
         let adam = Adam::new(AdamConfig::default(), &field.params);
         let frames = corrections_for(data, config);
-        let errors = None;
         let state = TrainState {
             step: 0,
             total_steps: budget.steps,
@@ -247,7 +246,7 @@ impl<'a> Trainer<'a> {
                 state,
                 lights,
                 frames,
-                errors,
+                errors: None,
             },
         )
     }
@@ -270,14 +269,10 @@ impl<'a> Trainer<'a> {
         let state: TrainState = serde_json::from_value(meta.trainer["state"].clone())
             .map_err(|e| bad(format!("trainer.state: {e}")))?;
         let lights = light_codes(data, augmentation);
-        let frames = match meta.trainer.get("frames").filter(|v| !v.is_null()) {
-            Some(v) => Some(
-                serde_json::from_value::<FrameCorrections>(v.clone())
-                    .map_err(|e| bad(format!("trainer.frames: {e}")))?
-                    .restored(),
-            ),
-            None => corrections_for(data, config),
-        };
+        let frames = stored_entry::<FrameCorrections>(&meta.trainer, "frames")
+            .map_err(&bad)?
+            .map(FrameCorrections::restored)
+            .or_else(|| corrections_for(data, config));
         if let Some(f) = frames.as_ref().filter(|f| f.frames() != data.origins.len()) {
             return Err(bad(format!(
                 "corrections of {} frames, this capture has {}",
@@ -285,14 +280,9 @@ impl<'a> Trainer<'a> {
                 data.origins.len()
             )));
         }
-        let errors = match meta.trainer.get("ray_errors").filter(|v| !v.is_null()) {
-            Some(v) => Some(
-                serde_json::from_value::<ErrorMap>(v.clone())
-                    .map_err(|e| bad(format!("trainer.ray_errors: {e}")))?
-                    .restored(),
-            ),
-            None => None,
-        };
+        let errors = stored_entry::<ErrorMap>(&meta.trainer, "ray_errors")
+            .map_err(&bad)?
+            .map(ErrorMap::restored);
         if field.config().light_codes != lights.names.len().max(1) {
             return Err(bad(format!(
                 "{} light codes, this run has {}",
@@ -347,11 +337,13 @@ impl<'a> Trainer<'a> {
             target.push(i as u32);
         }
         let grads = Params::zeros_like(&field.params);
+        // A stored map is kept when it covers this pool; a guided run without one starts afresh.
         let guided = !config.ray_choice.is_uniform() && !surface_rays.is_empty();
-        let errors = errors
-            .filter(|e| e.rays() == surface_rays.len())
-            .or_else(|| guided.then(|| ErrorMap::new(surface_rays.len())))
-            .filter(|_| guided);
+        let errors = guided.then(|| {
+            errors
+                .filter(|e| e.rays() == surface_rays.len())
+                .unwrap_or_else(|| ErrorMap::new(surface_rays.len()))
+        });
         Self {
             data,
             augmentation,
@@ -988,6 +980,19 @@ fn score_ray(
         rgb: out.rgb,
         d_rgb: d_rgb_out,
     }
+}
+
+/// The entry `key` of a checkpoint's `trainer` field, when it is there and not null; an error message
+/// naming it when it does not parse.
+fn stored_entry<T: serde::de::DeserializeOwned>(
+    trainer: &serde_json::Value,
+    key: &str,
+) -> Result<Option<T>, String> {
+    trainer
+        .get(key)
+        .filter(|v| !v.is_null())
+        .map(|v| serde_json::from_value(v.clone()).map_err(|e| format!("trainer.{key}: {e}")))
+        .transpose()
 }
 
 /// What a run carries from step to step, fresh or restored from a checkpoint.
