@@ -2,7 +2,7 @@
 //! eikonal loss.
 //!
 //! A [`Tape`] keeps one [`Workspace`] per chunk of [`CHUNK`] points plus one gradient accumulator per
-//! rayon thread; both are allocated on first use and reused by later steps of the same size or smaller.
+//! group of chunks (`GRADIENT_GROUPS`); both are allocated on first use and reused by later steps of the same size or smaller.
 
 use crate::neus::{CHUNK, CodeSet, Codes, FieldPack, NeusField, Outputs, Workspace};
 use crate::params::Params;
@@ -26,6 +26,14 @@ fn block_size(count: usize, threads: usize) -> usize {
         .div_ceil(TASKS_PER_THREAD * threads.max(1))
         .clamp(1, BLOCK)
 }
+
+/// Groups of chunks whose network gradients [`NeusField::backward`] sums separately, then adds in group
+/// order. The cut depends on the batch alone, never on the thread count, so a model trains to the same
+/// bits on one thread or sixteen, and the models of a room can train side by side on any split of the
+/// cores. Two groups are the cut two threads always made, so models and figures measured on two cores
+/// before the cut was fixed are the ones every thread count now trains; a machine with more cores than
+/// that keeps them busy with models side by side rather than with more groups.
+const GRADIENT_GROUPS: usize = 2;
 
 /// What a batched forward pass saves for its backward pass.
 #[derive(Clone, Debug, Default)]
@@ -116,7 +124,9 @@ impl<T: Real> NeusField<T> {
     }
 
     /// Backward pass after [`NeusField::forward`] with the same `codes` and parameters: adds every parameter gradient to
-    /// `grads` (full shape, hash group included) and, with `d_points`, writes `∂loss/∂x` per point.
+    /// `grads` (full shape, hash group included) and, with `d_points`, writes `∂loss/∂x` per point. The sums
+    /// are cut by the batch into a fixed number of groups, so the gradients do not depend on the thread
+    /// count.
     pub fn backward(
         &self,
         codes: &CodeSet,
@@ -126,8 +136,7 @@ impl<T: Real> NeusField<T> {
         grads: &mut Params<T>,
         d_points: Option<&mut [[T; 3]]>,
     ) {
-        let threads = rayon::current_num_threads().max(1);
-        let per = tape.used.div_ceil(threads).max(1);
+        let per = tape.used.div_ceil(GRADIENT_GROUPS).max(1);
         let groups = tape.used.div_ceil(per);
         while tape.partials.len() < groups {
             tape.partials

@@ -2,11 +2,12 @@
 //! small shapes of per-chunk MLPs, with runtime CPU-feature dispatch.
 //!
 //! A tile keeps `MR` rows × `NC` columns of `C` in registers while it walks `k`: per step it loads one row
-//! of `B` (whole vectors) and broadcasts `MR` values of `A`. Tiles are chosen by the columns left (64, 32,
-//! then 16 at a time) so that 16- and 32-wide layers do not waste lanes. The same generic code is compiled
-//! three times: with AVX-512 (16 `f32` per register, 32 registers), with AVX2 + FMA, and portably; the
-//! `f64` gradient tests run the portable copy, which is the same source. [`Precision::Bf16`] asks for
-//! the bf16 tiles (`kernel/bf16.rs`) where the CPU has AVX-512 BF16 (the `f32` ones elsewhere).
+//! of `B` (whole vectors) and broadcasts `MR` values of `A`. There are three sets of tiles: AVX-512 (16
+//! `f32` per register, 32 registers; tiles chosen by the columns left, 64, 32, then 16 at a time, so that
+//! 16- and 32-wide layers do not waste lanes), AVX2 + FMA (6 rows × 16 columns, as 16 registers of 8
+//! allow), and the portable generic code, which the `f64` gradient tests run. The two vector sets sum
+//! every entry as the same chain of fused multiply–adds, so they give the same bits. [`Precision::Bf16`]
+//! asks for the bf16 tiles (`kernel/bf16.rs`) where the CPU has AVX-512 BF16 (the `f32` ones elsewhere).
 
 use crate::real::Real;
 use serde::{Deserialize, Serialize};
@@ -129,6 +130,12 @@ pub fn matmul<T: Real>(
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU has AVX-512F; `args` satisfies the bounds asserted above.
             unsafe { avx512::run(&args) };
+            return;
+        }
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU has AVX2 and FMA; `args` satisfies the bounds asserted above.
+            unsafe { avx2::run(&args) };
             return;
         }
     }
@@ -439,6 +446,109 @@ mod avx512 {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    //! The `f32` AVX2 + FMA tiles: 6 rows × 16 columns (two registers of 8), the widest tile whose sums,
+    //! the `B` row and the broadcast fit the 16 registers. Every sum is the same chain of fused
+    //! multiply–adds over `k` as in the AVX-512 tiles, so both give the same bits.
+
+    use super::{Args, Init};
+    use std::arch::x86_64::*;
+
+    /// Rows of a tile.
+    const MR: usize = 6;
+    /// Registers of 8 columns across a tile.
+    const NV: usize = 2;
+
+    /// As [`super::run`], for `f32` with AVX2 and FMA.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 and FMA; `args` satisfies [`super::matmul`]'s bounds.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn run(args: &Args<f32>) {
+        let mut j = 0;
+        while j < args.n {
+            let cols = (args.n - j).min(8 * NV);
+            let mut r = 0;
+            // SAFETY: a block starts at a column `j < n` and reads `B` up to `j + 16 ≤ padded(n)`;
+            // rows `r..r + rows ≤ m`.
+            unsafe {
+                while r + MR <= args.m {
+                    tile::<MR>(args, r, j, cols);
+                    r += MR;
+                }
+                while r < args.m {
+                    tile::<1>(args, r, j, cols);
+                    r += 1;
+                }
+            }
+            j += 8 * NV;
+        }
+    }
+
+    /// Mask of the lanes of register `v` that hold one of the first `cols` columns.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn mask(cols: usize, v: usize) -> __m256i {
+        let live = cols.saturating_sub(8 * v).min(8) as i32;
+        _mm256_cmpgt_epi32(
+            _mm256_set1_epi32(live),
+            _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+        )
+    }
+
+    /// One `ROWS × 16` tile of `C` at row `r`, column `j`; only the first `cols` columns are read from
+    /// and written to `C` (masked). `B` is read in whole registers.
+    ///
+    /// # Safety
+    /// Rows `r..r + ROWS` are below `m`; `j + 16 ≤ padded(n)`, so `B`'s rows are readable that far.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn tile<const ROWS: usize>(args: &Args<f32>, r: usize, j: usize, cols: usize) {
+        let masks = [mask(cols, 0), mask(cols, 1)];
+        let mut acc = [[_mm256_setzero_ps(); NV]; ROWS];
+        // SAFETY (whole body): offsets stay within the operands by `matmul`'s bounds and the caller's
+        // promises; `C` is only touched through masks of its first `cols` columns.
+        unsafe {
+            match args.init {
+                Init::Zero => {}
+                Init::Accumulate => {
+                    for (q, row) in acc.iter_mut().enumerate() {
+                        let c = args.c.add((r + q) * args.ldc + j);
+                        for (v, x) in row.iter_mut().enumerate() {
+                            *x = _mm256_maskload_ps(c.add(8 * v), masks[v]);
+                        }
+                    }
+                }
+                Init::Bias(bias) => {
+                    for row in acc.iter_mut() {
+                        for (v, x) in row.iter_mut().enumerate() {
+                            *x = _mm256_loadu_ps(bias.as_ptr().add(j + 8 * v));
+                        }
+                    }
+                }
+            }
+            for s in 0..args.k {
+                let bp = args.b.add(s * args.ldb + j);
+                let bv = [_mm256_loadu_ps(bp), _mm256_loadu_ps(bp.add(8))];
+                let ap = args.a.add(r * args.a_rs + s * args.a_cs);
+                for (q, row) in acc.iter_mut().enumerate() {
+                    let av = _mm256_set1_ps(*ap.add(q * args.a_rs));
+                    for (x, b) in row.iter_mut().zip(&bv) {
+                        *x = _mm256_fmadd_ps(av, *b, *x);
+                    }
+                }
+            }
+            for (q, row) in acc.iter().enumerate() {
+                let c = args.c.add((r + q) * args.ldc + j);
+                for (v, x) in row.iter().enumerate() {
+                    _mm256_maskstore_ps(c.add(8 * v), masks[v], *x);
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -504,6 +614,55 @@ mod tests {
                             }
                         }
                     }
+                }
+            }
+        }
+    }
+
+    /// The AVX-512 and the AVX2 tiles give the same bits: each sum is the chain of fused multiply–adds
+    /// over `k` from its start value, whatever the tile shape, so a model trains alike on either CPU.
+    #[test]
+    fn vector_tiles_sum_as_one_chain_of_fused_multiply_adds() {
+        #[cfg(target_arch = "x86_64")]
+        let vector = std::arch::is_x86_feature_detected!("avx512f")
+            || (std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma"));
+        #[cfg(not(target_arch = "x86_64"))]
+        let vector = false;
+        if !vector {
+            eprintln!("no AVX-512 or AVX2 + FMA on this CPU: the portable kernel does not fuse");
+            return;
+        }
+        let value = |i: usize| ((i * 7919 % 1000) as f32 - 500.0) / 317.0;
+        for &(m, n, k) in &[(13, 16, 9), (9, 35, 66), (37, 64, 35), (5, 97, 4)] {
+            let a: Vec<f32> = (0..m * k).map(value).collect();
+            let ldb = padded(n);
+            let b: Vec<f32> = (0..k * ldb).map(|i| value(i + 31)).collect();
+            let bias: Vec<f32> = (0..ldb).map(|i| value(i + 7)).collect();
+            let mut c = vec![0.0f32; m * n];
+            matmul(
+                Precision::F32,
+                m,
+                n,
+                k,
+                &a,
+                k,
+                1,
+                &b,
+                ldb,
+                &mut c,
+                n,
+                Init::Bias(&bias),
+            );
+            for r in 0..m {
+                for j in 0..n {
+                    let chain =
+                        (0..k).fold(bias[j], |acc, s| a[r * k + s].mul_add(b[s * ldb + j], acc));
+                    assert_eq!(
+                        c[r * n + j].to_bits(),
+                        chain.to_bits(),
+                        "({m},{n},{k}) [{r}][{j}]"
+                    );
                 }
             }
         }

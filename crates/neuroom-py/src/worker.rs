@@ -83,17 +83,17 @@ impl WorkProgress {
 impl TrainProgress for WorkProgress {
     fn start(&self, model: &str, done: u64, total: u64) {
         *self.stage.lock().unwrap_or_else(|e| e.into_inner()) = model.to_string();
-        self.report(done, total);
+        self.tell(model, done, total);
     }
 
-    fn step(&self, step: u64, total: u64, _: &neuroom::train::LossParts) {
-        self.report(step, total);
+    fn step(&self, model: &str, step: u64, total: u64, _: &neuroom::train::LossParts) {
+        self.tell(model, step, total);
     }
 
-    fn finish(&self, _: &str) {}
+    fn finish(&self, _: &str, _: &str) {}
 
-    fn note(&self, position: u64, total: u64, _: &str) {
-        self.report(position, total);
+    fn note(&self, stage: &str, position: u64, total: u64, _: &str) {
+        self.tell(stage, position, total);
     }
 
     fn interrupted(&self) -> bool {

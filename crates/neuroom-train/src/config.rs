@@ -108,8 +108,14 @@ pub struct TrainConfig {
     pub appearance_per_frame: bool,
     /// Seed of sampling and initialisation.
     pub seed: u64,
-    /// Worker threads (0 = rayon's default). Bit-identical resumption needs the same count.
+    /// Worker threads (0 = rayon's default). A model's gradients do not depend on it, so neither do the
+    /// models trained with step budgets.
     pub threads: usize,
+    /// How many of a room's models train at once, each on its share of the threads (0 = one per thread
+    /// while models are left; see [`crate::lanes`]). Not part of a model: it changes when models are
+    /// ready, not what they hold, so it is not serialised.
+    #[serde(skip)]
+    pub models_at_once: usize,
     /// The clock of the time budgets.
     #[serde(default)]
     pub budget_clock: BudgetClock,
@@ -179,6 +185,15 @@ impl FrameRefinement {
     }
 }
 
+impl TrainConfig {
+    /// The lanes of a room's training ([`TrainConfig::models_at_once`]): one when a time budget is set,
+    /// so that each model has the whole machine for the seconds it was given.
+    pub fn lanes(&self) -> usize {
+        let timed = self.object.time_budget_s.is_some() || self.background.time_budget_s.is_some();
+        if timed { 1 } else { self.models_at_once }
+    }
+}
+
 impl Default for TrainConfig {
     /// Budgets in steps, so the same configuration gives the same models on any machine and load:
     /// objects [`OBJECT_STEPS`], 2 048 rays × (12 shell + 4 uniform) samples, T = 2^15, finest 512; the
@@ -233,6 +248,7 @@ impl Default for TrainConfig {
             appearance_per_frame: false,
             seed: 1,
             threads: 0,
+            models_at_once: 0,
             budget_clock: BudgetClock::Wall,
             object_start: ObjectStart::Box,
             frame_refinement: FrameRefinement::default(),

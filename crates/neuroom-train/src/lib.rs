@@ -4,7 +4,8 @@
 //! - [`dataset`]: rays, targets and pixel classes from a capture; [`normals`]: normals from depth.
 //! - [`losses`]: colour, depth, mask, SDF-from-depth terms; [`trainer`]: the loop of one model, resumable.
 //! - [`augment`] + [`lighting`]: HDR lighting augmentation and light codes.
-//! - [`room`]: `train_room` and the model directory of a room with its reader.
+//! - [`room`]: `train_room` and the model directory of a room with its reader; [`lanes`]: its models
+//!   trained side by side.
 //! - [`ray_choice`]: which rays a step trains on (uniform or guided by the colour error).
 //! - [`frame_corrections`]: per-frame colour gains and pose corrections (phone captures).
 //! - [`eval`]: held-out PSNR, depth error, Chamfer, light-code check; [`mod@bench`]: timed runs with reports.
@@ -15,6 +16,7 @@ pub mod config;
 pub mod dataset;
 pub mod eval;
 pub mod frame_corrections;
+pub mod lanes;
 pub mod lighting;
 pub mod losses;
 pub mod normals;

@@ -17,6 +17,7 @@ use crate::config::TrainConfig;
 use crate::dataset::{Aabb, Dataset, LoadOptions, Role};
 use crate::eval::{EvalReport, evaluate, extract_mesh};
 use crate::frame_corrections::{CorrectionSummary, FrameCorrections};
+use crate::lanes::{lane_threads, run_in_lanes};
 use crate::losses::LossParts;
 use crate::progress::Progress;
 use crate::trainer::{LightCodes, ModelKind, Trainer, field_config};
@@ -28,6 +29,7 @@ use neuroom_field::NeusField;
 use neuroom_field::checkpoint::{self, CheckpointError};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// Format tag of `manifest.json`.
@@ -274,29 +276,40 @@ pub fn train_room(
     only: &[String],
     progress: &dyn Progress,
 ) -> Result<TrainSummary, TrainError> {
-    with_threads(config.threads, || {
-        let start = Instant::now();
-        let room = read_room(room_dir)?;
-        let specs = model_specs(&room);
-        check_names(room_dir, &specs, only)?;
-        let dir = models_out.join(&room.name);
-        let augmentation = Augmentation::load(&config.env_maps)?;
-        let mut trained = Vec::new();
-        for spec in &specs {
-            if (only.is_empty() || only.contains(&spec.name)) && read_entry(&dir, spec)?.is_none() {
-                trained.push(spec.name.clone());
-                train_model(spec, &dir.join(&spec.path), config, &augmentation, progress)?;
-                write_manifest(&dir, &finished_manifest(&room, &dir, &specs)?)?;
-            }
+    let start = Instant::now();
+    let room = read_room(room_dir)?;
+    let specs = model_specs(&room);
+    check_names(room_dir, &specs, only)?;
+    let dir = models_out.join(&room.name);
+    let augmentation = Augmentation::load(&config.env_maps)?;
+    let mut todo = Vec::new();
+    for spec in &specs {
+        if (only.is_empty() || only.contains(&spec.name)) && read_entry(&dir, spec)?.is_none() {
+            todo.push(spec);
         }
-        let manifest = finished_manifest(&room, &dir, &specs)?;
-        write_manifest(&dir, &manifest)?;
-        Ok(TrainSummary {
-            dir,
-            manifest,
-            trained,
-            seconds: start.elapsed().as_secs_f64(),
-        })
+    }
+    let threads = match config.threads {
+        0 => rayon::current_num_threads(),
+        n => n,
+    };
+    let lanes = lane_threads(threads, todo.len(), config.lanes());
+    let manifest_lock = Mutex::new(());
+    let train_one = |spec: &&ModelSpec| -> Result<(), TrainError> {
+        train_model(spec, &dir.join(&spec.path), config, &augmentation, progress)?;
+        let _written = manifest_lock.lock().unwrap_or_else(|e| e.into_inner());
+        write_manifest(&dir, &finished_manifest(&room, &dir, &specs)?)
+    };
+    match lanes.as_slice() {
+        [one] => with_threads(*one, || run_in_lanes(&todo, &lanes, train_one))?,
+        _ => run_in_lanes(&todo, &lanes, train_one)?,
+    };
+    let manifest = finished_manifest(&room, &dir, &specs)?;
+    write_manifest(&dir, &manifest)?;
+    Ok(TrainSummary {
+        dir,
+        manifest,
+        trained: todo.iter().map(|s| s.name.clone()).collect(),
+        seconds: start.elapsed().as_secs_f64(),
     })
 }
 

@@ -1134,7 +1134,7 @@ impl Trainer<'_> {
         let every = self.config.checkpoint_every;
         while !self.finished() {
             let loss = self.step();
-            progress.step(self.state.step, self.state.total_steps, &loss);
+            progress.step(name, self.state.step, self.state.total_steps, &loss);
             let health = self.state.health;
             if health.in_a_row >= MAX_FAULTS_IN_A_ROW {
                 return Err(TrainError::Diverged {
@@ -1180,7 +1180,9 @@ impl Trainer<'_> {
             ),
             None => String::new(),
         };
-        progress.finish(&format!(
+        progress.finish(
+            name,
+            &format!(
             "{} steps in {:.0} s, loss {:.4}, batch PSNR {:.2} dB, inv_s {:.0}{corrections}{faults}",
             self.state.step,
             self.state.elapsed_s,

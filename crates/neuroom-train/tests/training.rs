@@ -328,27 +328,29 @@ fn a_tall_object_starting_from_its_box_learns_faster_than_from_a_sphere() {
 }
 
 #[test]
-fn two_runs_with_the_same_seed_and_two_threads_are_bit_identical() {
+fn runs_with_the_same_seed_are_bit_identical_on_any_thread_count() {
     let dir = tempfile::tempdir().unwrap();
     let data = ball_data(&dir.path().join("capture"));
     let mut config = quick_config(15);
     config.object.batch_rays = 256;
     let aug = Augmentation::default();
-    let run = || {
-        with_threads(2, || {
+    let run = |threads: usize| {
+        with_threads(threads, || {
             let mut t = Trainer::new(&data, &aug, &config, ModelKind::Object, BALL_BOX);
             t.run("ball", None, &Quiet).unwrap();
             t.field.params.clone()
         })
     };
-    let (a, b) = (run(), run());
-    for g in neuroom_field::Group::ALL {
-        let same = a
-            .get(g)
-            .iter()
-            .zip(b.get(g))
-            .all(|(x, y)| x.to_bits() == y.to_bits());
-        assert!(same, "{} differs between two identical runs", g.name());
+    let reference = run(2);
+    for (threads, other) in [(2, run(2)), (1, run(1)), (3, run(3))] {
+        for g in neuroom_field::Group::ALL {
+            let same = reference
+                .get(g)
+                .iter()
+                .zip(other.get(g))
+                .all(|(x, y)| x.to_bits() == y.to_bits());
+            assert!(same, "{} differs between 2 and {threads} threads", g.name());
+        }
     }
 }
 

@@ -23,7 +23,7 @@ pub struct BaselineCase {
     pub object_steps: u64,
     /// Training steps of the background model.
     pub background_steps: u64,
-    /// Worker threads of training and locate: bit-identical figures need the same count.
+    /// Worker threads of training and locate (the models do not depend on it; locate's figures may).
     pub threads: usize,
 }
 
@@ -110,8 +110,9 @@ pub fn run_baseline(
 }
 
 /// How far a figure may move before the baseline check fails. On one machine with the same thread
-/// count every figure repeats exactly (step budgets, fixed seeds); another CPU may round sums
-/// differently (vector width, libm), and training carries those last bits into the weights. The bounds
+/// count every figure repeats exactly (step budgets, fixed seeds), and CPUs with AVX-512 or AVX2 + FMA
+/// train the same weights; another CPU may round sums differently (no fused multiply–add, libm), and
+/// training carries those last bits into the weights. The bounds
 /// admit that drift and stay well below what a change that matters moves (one object placed
 /// elsewhere moves a two-object room's IoU by tens of points).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -27,7 +27,7 @@ pub struct SuiteTraining {
     pub background_steps: u64,
     /// Seed of sampling and initialisation.
     pub seed: u64,
-    /// Worker threads (0 = all cores); bit-identical models need the same count.
+    /// Worker threads (0 = all cores); the models do not depend on it.
     pub threads: usize,
     /// Which per-frame corrections the models learn.
     pub frame_corrections: RefineWhen,

@@ -26,6 +26,9 @@ pub struct TrainOptions {
     pub background_seconds: Option<f64>,
     /// Worker threads (0 = all cores).
     pub threads: usize,
+    /// How many models train at once, each on its share of the threads (0 = one per thread while
+    /// models are left); the models are the same whatever it is.
+    pub models_at_once: usize,
     /// Seed of sampling and initialisation.
     pub seed: Option<u64>,
     /// Count the budgets in CPU seconds per worker thread (see [`neuroom_train::BudgetClock::Cpu`]).
@@ -84,6 +87,7 @@ impl TrainOptions {
             c.seed = seed;
         }
         c.threads = self.threads;
+        c.models_at_once = self.models_at_once;
         if self.cpu_clock {
             c.budget_clock = neuroom_train::BudgetClock::Cpu;
         }
@@ -184,18 +188,23 @@ fn build_identify_network(
         return Ok(());
     }
     let total = settings.seconds.ceil() as u64;
-    progress.start("identify network", 0, total);
+    let stage = "identify network";
+    progress.start(stage, 0, total);
     let network = crate::identify::build_identify_network(room, dir, settings, &mut |tick| {
         progress.note(
+            stage,
             tick.seconds as u64,
             total,
             &format!("step {} loss {:.4}", tick.steps, tick.loss),
         );
     })?;
-    progress.finish(&match network {
-        Some(network) => describe_network(&network),
-        None => "no object model to identify".to_string(),
-    });
+    progress.finish(
+        stage,
+        &match network {
+            Some(network) => describe_network(&network),
+            None => "no object model to identify".to_string(),
+        },
+    );
     Ok(())
 }
 
@@ -226,20 +235,24 @@ fn build_locate_database(dir: &Path, progress: &dyn TrainProgress) {
         return;
     }
     let start = std::time::Instant::now();
-    progress.start("locate database", 0, 0);
+    let stage = "locate database";
+    progress.start(stage, 0, 0);
     let built = crate::locate::build_locate_database(
         dir,
         &neuroom_panorama::database::DatabaseConfig::default(),
         &mut |_, _| {},
     );
-    progress.finish(&match built {
-        Ok(db) => format!(
-            "{} panoramas of the empty room in {:.0} s",
-            db.entries.len(),
-            start.elapsed().as_secs_f64()
-        ),
-        Err(e) => format!("not built: {e:#}"),
-    });
+    progress.finish(
+        stage,
+        &match built {
+            Ok(db) => format!(
+                "{} panoramas of the empty room in {:.0} s",
+                db.entries.len(),
+                start.elapsed().as_secs_f64()
+            ),
+            Err(e) => format!("not built: {e:#}"),
+        },
+    );
 }
 
 /// One line describing a trained model and its held-out figures.

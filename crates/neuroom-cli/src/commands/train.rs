@@ -32,9 +32,13 @@ pub struct Args {
     /// Time budget of the background model, seconds, instead of steps.
     #[arg(long)]
     background_seconds: Option<f64>,
-    /// Worker threads (0 = all cores); resuming bit-identically needs the same count.
+    /// Worker threads (0 = all cores). The models do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// How many models train at once, each on its share of the threads (0 = one per thread while
+    /// models are left; time budgets train one at a time). The models do not depend on it.
+    #[arg(long, default_value_t = 0)]
+    models_at_once: usize,
     /// Seed of sampling and initialisation.
     #[arg(long)]
     seed: Option<u64>,
@@ -73,6 +77,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         object_seconds: args.object_seconds,
         background_seconds: args.background_seconds,
         threads: args.threads,
+        models_at_once: args.models_at_once,
         seed: args.seed,
         cpu_clock: args.cpu_clock,
         identify_seconds: args.identify_seconds,
