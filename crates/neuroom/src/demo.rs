@@ -194,9 +194,9 @@ fn train_options(config: &DemoConfig) -> TrainOptions {
             seed: Some(config.seed),
             ..TrainOptions::default()
         },
-        // Seven object models and the room in about 7 min of steps on 2 cores (evaluation and the
-        // localization database add about 3; the whole demo must stay under 15); `neuroom train` uses
-        // the full budgets (about 5 minutes per object, 10 for the room).
+        // Seven object models and the room, trained side by side, with their evaluations and the
+        // localization database, within the whole demo's 15 minutes on 2 cores (docs/benchmarks.md,
+        // "The demo"); `neuroom train` uses the full budgets.
         DemoSize::Full => TrainOptions {
             object_steps: Some(FULL_OBJECT_STEPS),
             background_steps: Some(FULL_BACKGROUND_STEPS),
@@ -206,9 +206,9 @@ fn train_options(config: &DemoConfig) -> TrainOptions {
     }
 }
 
-/// Steps per object model of the full demo: about 46 s each on 2 cores.
+/// Steps per object model of the full demo.
 const FULL_OBJECT_STEPS: u64 = 800;
-/// Steps of the full demo's room model: about 110 s on 2 cores.
+/// Steps of the full demo's room model.
 const FULL_BACKGROUND_STEPS: u64 = 900;
 
 /// How many test panoramas the demo locates.
