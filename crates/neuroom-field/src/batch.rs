@@ -2,7 +2,8 @@
 //! eikonal loss.
 //!
 //! A [`Tape`] keeps one [`Workspace`] per chunk of [`CHUNK`] points plus one gradient accumulator per
-//! group of chunks (`GRADIENT_GROUPS`); both are allocated on first use and reused by later steps of the same size or smaller.
+//! group of chunks (`GRADIENT_GROUPS`); both are allocated on first use and reused by later steps of
+//! the same size or smaller.
 
 use crate::neus::{CHUNK, CodeSet, Codes, FieldPack, NeusField, Outputs, Workspace};
 use crate::params::Params;

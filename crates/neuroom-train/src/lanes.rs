@@ -23,8 +23,7 @@ pub fn lane_threads(threads: usize, jobs: usize, lanes: usize) -> Vec<usize> {
 
 /// Runs `work` on every job, in `lanes` (threads per lane, as [`lane_threads`] gives) that take the
 /// jobs in order. After a job fails, lanes take no new job; the jobs already running finish. Returns
-/// the results of the jobs in job order (`None` for a job no lane took) or the first failure in job
-/// order. With one lane the jobs run in order on the calling thread's pool.
+/// the results in job order, or the first failure in job order.
 pub fn run_in_lanes<J, R, E>(
     jobs: &[J],
     lanes: &[usize],
@@ -35,9 +34,6 @@ where
     R: Send,
     E: Send,
 {
-    if lanes.len() <= 1 {
-        return jobs.iter().map(&work).collect();
-    }
     let next = AtomicUsize::new(0);
     let failed = std::sync::atomic::AtomicBool::new(false);
     let results: Mutex<Vec<Option<Result<R, E>>>> =

@@ -299,10 +299,7 @@ pub fn train_room(
         let _written = manifest_lock.lock().unwrap_or_else(|e| e.into_inner());
         write_manifest(&dir, &finished_manifest(&room, &dir, &specs)?)
     };
-    match lanes.as_slice() {
-        [one] => with_threads(*one, || run_in_lanes(&todo, &lanes, train_one))?,
-        _ => run_in_lanes(&todo, &lanes, train_one)?,
-    };
+    run_in_lanes(&todo, &lanes, train_one)?;
     let manifest = finished_manifest(&room, &dir, &specs)?;
     write_manifest(&dir, &manifest)?;
     Ok(TrainSummary {
