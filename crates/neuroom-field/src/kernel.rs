@@ -161,6 +161,32 @@ struct Args<'a, T> {
 }
 
 impl<'a, T: Real> Args<'a, T> {
+    /// The product cut into passes over at most `kc` of the sums' terms each, in order: the first
+    /// starts `C` as `init` says, the others add to it. Every sum is the same chain of operations as
+    /// in one pass (a partial sum stored in `C` and read back is the same value), so the cut leaves
+    /// the bits as they are.
+    fn k_blocks(&self, kc: usize) -> impl Iterator<Item = Args<'a, T>> + '_ {
+        let blocks = self.k.div_ceil(kc).max(1);
+        (0..blocks).map(move |i| {
+            let s = i * kc;
+            Args {
+                m: self.m,
+                n: self.n,
+                k: (self.k - s).min(kc),
+                // Offsets within the operands when a block's terms exist (`s < k`); the empty product
+                // of `k = 0` keeps the operands' starts.
+                a: self.a.wrapping_add(s * self.a_cs),
+                a_rs: self.a_rs,
+                a_cs: self.a_cs,
+                b: self.b.wrapping_add(s * self.ldb),
+                ldb: self.ldb,
+                c: self.c,
+                ldc: self.ldc,
+                init: if i == 0 { self.init } else { Init::Accumulate },
+            }
+        })
+    }
+
     /// The same operands typed as `f32`, when `T` is `f32`.
     fn as_f32(&self) -> Option<Args<'a, f32>> {
         let init = match self.init {
@@ -466,6 +492,23 @@ mod avx2 {
     /// The CPU has AVX2 and FMA; `args` satisfies [`super::matmul`]'s bounds.
     #[target_feature(enable = "avx2,fma")]
     pub(super) unsafe fn run(args: &Args<f32>) {
+        for block in args.k_blocks(KC) {
+            // SAFETY: each block is a part of the operands `args` bounds.
+            unsafe { run_block(&block) };
+        }
+    }
+
+    /// Terms of the sums taken per pass over `C`: a block of `A`'s columns and `B`'s rows this long
+    /// stays in the first-level cache while every tile of `C` reads it (a weight gradient sums over
+    /// a whole chunk of points, whose operands would not).
+    const KC: usize = 64;
+
+    /// [`run`] for one block of the sums' terms.
+    ///
+    /// # Safety
+    /// As [`run`].
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn run_block(args: &Args<f32>) {
         let mut j = 0;
         while j < args.n {
             let cols = (args.n - j).min(8 * NV);
@@ -477,9 +520,15 @@ mod avx2 {
                     tile::<MR>(args, r, j, cols);
                     r += MR;
                 }
-                while r < args.m {
-                    tile::<1>(args, r, j, cols);
-                    r += 1;
+                // The last rows in one tile of their height: single rows would each wait on their
+                // own chain of fused multiply–adds.
+                match args.m - r {
+                    5 => tile::<5>(args, r, j, cols),
+                    4 => tile::<4>(args, r, j, cols),
+                    3 => tile::<3>(args, r, j, cols),
+                    2 => tile::<2>(args, r, j, cols),
+                    1 => tile::<1>(args, r, j, cols),
+                    _ => {}
                 }
             }
             j += 8 * NV;
@@ -498,7 +547,7 @@ mod avx2 {
     }
 
     /// One `ROWS × 16` tile of `C` at row `r`, column `j`; only the first `cols` columns are read from
-    /// and written to `C` (masked). `B` is read in whole registers.
+    /// and written to `C`. `B` is read in whole registers.
     ///
     /// # Safety
     /// Rows `r..r + ROWS` are below `m`; `j + 16 ≤ padded(n)`, so `B`'s rows are readable that far.
@@ -506,9 +555,12 @@ mod avx2 {
     #[inline]
     unsafe fn tile<const ROWS: usize>(args: &Args<f32>, r: usize, j: usize, cols: usize) {
         let masks = [mask(cols, 0), mask(cols, 1)];
+        // Masked loads and stores take several micro-operations on some CPUs (AMD's): a tile of whole
+        // 16 columns reads and writes `C` plainly.
+        let whole = cols == 8 * NV;
         let mut acc = [[_mm256_setzero_ps(); NV]; ROWS];
         // SAFETY (whole body): offsets stay within the operands by `matmul`'s bounds and the caller's
-        // promises; `C` is only touched through masks of its first `cols` columns.
+        // promises; `C` is only touched in its first `cols` columns (masked unless all 16 are).
         unsafe {
             match args.init {
                 Init::Zero => {}
@@ -516,7 +568,11 @@ mod avx2 {
                     for (q, row) in acc.iter_mut().enumerate() {
                         let c = args.c.add((r + q) * args.ldc + j);
                         for (v, x) in row.iter_mut().enumerate() {
-                            *x = _mm256_maskload_ps(c.add(8 * v), masks[v]);
+                            *x = if whole {
+                                _mm256_loadu_ps(c.add(8 * v))
+                            } else {
+                                _mm256_maskload_ps(c.add(8 * v), masks[v])
+                            };
                         }
                     }
                 }
@@ -542,7 +598,11 @@ mod avx2 {
             for (q, row) in acc.iter().enumerate() {
                 let c = args.c.add((r + q) * args.ldc + j);
                 for (v, x) in row.iter().enumerate() {
-                    _mm256_maskstore_ps(c.add(8 * v), masks[v], *x);
+                    if whole {
+                        _mm256_storeu_ps(c.add(8 * v), *x);
+                    } else {
+                        _mm256_maskstore_ps(c.add(8 * v), masks[v], *x);
+                    }
                 }
             }
         }
@@ -571,6 +631,9 @@ mod tests {
                 (9, 35, 66),
                 (37, 64, 35),
                 (5, 97, 4),
+                (10, 32, 7),
+                (8, 17, 3),
+                (7, 20, 150),
             ] {
                 // Column-major A with padding, then row-major A with padding.
                 for (a_rs, a_cs) in [(1, m + 2), (k + 3, 1)] {
@@ -634,7 +697,15 @@ mod tests {
             return;
         }
         let value = |i: usize| ((i * 7919 % 1000) as f32 - 500.0) / 317.0;
-        for &(m, n, k) in &[(13, 16, 9), (9, 35, 66), (37, 64, 35), (5, 97, 4)] {
+        for &(m, n, k) in &[
+            (13, 16, 9),
+            (9, 35, 66),
+            (37, 64, 35),
+            (5, 97, 4),
+            (10, 32, 7),
+            (8, 17, 3),
+            (7, 20, 150),
+        ] {
             let a: Vec<f32> = (0..m * k).map(value).collect();
             let ldb = padded(n);
             let b: Vec<f32> = (0..k * ldb).map(|i| value(i + 31)).collect();
