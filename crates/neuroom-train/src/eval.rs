@@ -143,7 +143,7 @@ pub fn shade_view(
 }
 
 /// Where a ray first crosses the zero level set.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Hit {
     pixel: usize,
     dir: Vec3,
@@ -153,6 +153,11 @@ struct Hit {
 }
 
 /// First zero crossing of the SDF along each ray, from `options.coarse` SDF samples.
+///
+/// The samples are taken front to back in rounds of [`SEARCH_ROUND`]; a ray leaves the search at the
+/// round where it crosses. The SDF of a point does not depend on the batch it is computed in, so the
+/// crossings are those of all samples taken at once, for a fraction of the samples: most rays meet the
+/// model well before the far side of its box.
 fn find_surfaces(
     field: &NeusField<f32>,
     o: Vec3,
@@ -160,34 +165,97 @@ fn find_surfaces(
     options: &RenderOptions,
     tape: &mut Tape<f32>,
 ) -> Vec<Hit> {
-    let k = options.coarse.max(2);
-    let mut points = Vec::with_capacity(rays.len() * k);
-    let mut ts = Vec::new();
-    for &(_, d, near, far) in rays {
-        uniform(near, far, k, &mut ts);
-        points.extend(ts.iter().map(|t| (o + *t * d).to_array()));
-    }
-    field.forward(&points, &[], &CodeSet::default(), Outputs::Sdf, tape);
-    let mut sdf = vec![0.0; points.len()];
-    tape.copy_sdf(&mut sdf);
-    rays.iter()
-        .enumerate()
-        .filter_map(|(r, &(i, d, near, far))| {
-            let s = &sdf[r * k..(r + 1) * k];
-            let step = (far - near) / (k - 1) as f32;
-            let j = (0..k - 1).find(|&j| s[j] > 0.0 && s[j + 1] <= 0.0)?;
-            let t = near + step * (j as f32 + s[j] / (s[j] - s[j + 1]));
-            let slope = (s[j] - s[j + 1]) / step;
-            Some(Hit {
-                pixel: i,
-                dir: d,
-                t,
-                slope,
-            })
-        })
-        .collect()
+    find_surfaces_in_rounds(field, o, rays, options, tape, SEARCH_ROUND)
 }
 
+/// [`find_surfaces`] with `round` samples per ray and round.
+fn find_surfaces_in_rounds(
+    field: &NeusField<f32>,
+    o: Vec3,
+    rays: &[(usize, Vec3, f32, f32)],
+    options: &RenderOptions,
+    tape: &mut Tape<f32>,
+    round: usize,
+) -> Vec<Hit> {
+    let k = options.coarse.max(2);
+    let mut searches: Vec<RaySearch> = rays.iter().map(|&ray| RaySearch::new(ray, k)).collect();
+    let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
+    let mut active: Vec<usize> = (0..rays.len()).collect();
+    let mut points = Vec::new();
+    let mut sdf = Vec::new();
+    let mut first = 0;
+    while first < k && !active.is_empty() {
+        let last = (first + round.max(1)).min(k);
+        points.clear();
+        for &r in &active {
+            let s = &searches[r];
+            points.extend(
+                s.ts[first..last]
+                    .iter()
+                    .map(|t| (o + *t * s.dir).to_array()),
+            );
+        }
+        field.forward(&points, &[], &CodeSet::default(), Outputs::Sdf, tape);
+        sdf.resize(points.len(), 0.0);
+        tape.copy_sdf(&mut sdf);
+        let width = last - first;
+        let mut left = Vec::with_capacity(active.len());
+        for (a, &r) in active.iter().enumerate() {
+            match searches[r].extend(&sdf[a * width..(a + 1) * width]) {
+                Some(hit) => hits[r] = Some(hit),
+                None => left.push(r),
+            }
+        }
+        active = left;
+        first = last;
+    }
+    hits.into_iter().flatten().collect()
+}
+
+/// SDF samples of the surface search per ray and round.
+const SEARCH_ROUND: usize = 24;
+
+/// One ray's surface search: its sample distances and the SDF taken so far.
+struct RaySearch {
+    pixel: usize,
+    dir: Vec3,
+    near: f32,
+    /// Distance between samples.
+    step: f32,
+    ts: Vec<f32>,
+    sdf: Vec<f32>,
+}
+
+impl RaySearch {
+    /// The search along `(pixel, direction, near, far)` with `k` samples.
+    fn new((pixel, dir, near, far): (usize, Vec3, f32, f32), k: usize) -> Self {
+        let mut ts = Vec::with_capacity(k);
+        uniform(near, far, k, &mut ts);
+        Self {
+            pixel,
+            dir,
+            near,
+            step: (far - near) / (k - 1) as f32,
+            ts,
+            sdf: Vec::with_capacity(k),
+        }
+    }
+
+    /// Adds the SDF of the next samples; returns the hit when the first crossing from outside to
+    /// inside is among them (or between the last one before them and the first).
+    fn extend(&mut self, values: &[f32]) -> Option<Hit> {
+        let from = self.sdf.len().saturating_sub(1);
+        self.sdf.extend_from_slice(values);
+        let s = &self.sdf;
+        let j = (from..s.len() - 1).find(|&j| s[j] > 0.0 && s[j + 1] <= 0.0)?;
+        Some(Hit {
+            pixel: self.pixel,
+            dir: self.dir,
+            t: self.near + self.step * (j as f32 + s[j] / (s[j] - s[j + 1])),
+            slope: (s[j] - s[j + 1]) / self.step,
+        })
+    }
+}
 /// Volume-renders a shell around each found surface into `out`.
 fn shade(
     field: &NeusField<f32>,
@@ -475,6 +543,34 @@ mod tests {
     use crate::rng::Pcg32;
     use neuroom_core::Pose;
     use neuroom_core::camera::Pinhole;
+
+    #[test]
+    fn the_surface_search_in_rounds_finds_what_one_round_finds() {
+        let field = NeusField::new(neuroom_field::NeusConfig::object([0.3, 0.2, 0.25]));
+        let fc = field.config();
+        let bounds = Aabb {
+            min: fc.bounds_min,
+            max: fc.bounds_max,
+        };
+        let options = RenderOptions::for_diagonal(1.0);
+        let o = Vec3::new(0.1, -0.2, 0.9);
+        let rays: Vec<(usize, Vec3, f32, f32)> = (0..400)
+            .filter_map(|i| {
+                let (x, y) = ((i % 20) as f32 / 19.0 - 0.5, (i / 20) as f32 / 19.0 - 0.5);
+                let d = (Vec3::new(x * 0.8, y * 0.8, 0.0) - o).normalize();
+                let (near, far) = bounds.intersect(o, d)?;
+                Some((i, d, near.max(options.near), far))
+            })
+            .collect();
+        let mut tape = Tape::default();
+        let k = options.coarse;
+        let once = find_surfaces_in_rounds(&field, o, &rays, &options, &mut tape, k);
+        assert!(once.len() > 50 && once.len() < rays.len(), "{}", once.len());
+        for round in [1, 5, SEARCH_ROUND] {
+            let rounds = find_surfaces_in_rounds(&field, o, &rays, &options, &mut tape, round);
+            assert_eq!(rounds, once, "rounds of {round}");
+        }
+    }
 
     /// A 64 × 48 view of one grey surface with Gaussian noise of standard deviation `sigma` per channel
     /// (Box–Muller), a black border of non-surface pixels around it.

@@ -34,11 +34,11 @@ pub struct SuiteTraining {
 }
 
 impl Default for SuiteTraining {
-    /// 2 000 steps per object and 3 000 for the room: about 1.5 and 7 minutes on 2 cores.
+    /// `neuroom train`'s default step budgets, so the suite measures the models a user gets.
     fn default() -> Self {
         Self {
-            object_steps: 2000,
-            background_steps: 3000,
+            object_steps: neuroom_train::config::OBJECT_STEPS,
+            background_steps: neuroom_train::config::BACKGROUND_STEPS,
             seed: 1,
             threads: 0,
             frame_corrections: RefineWhen::FromCapture,

@@ -14,7 +14,7 @@ use crate::progress::StageBars;
 /// Resumable: run it again after an interruption.
 ///
 /// Examples:
-///   `neuroom demo`                            (the bedroom, about 22 minutes on 2 cores)
+///   `neuroom demo`                            (the bedroom, about 15 minutes on 2 cores)
 ///   `neuroom demo --quick --out quick-demo`   (the 3-object studio room, about 3 minutes)
 #[derive(clap::Args)]
 #[command(verbatim_doc_comment)]

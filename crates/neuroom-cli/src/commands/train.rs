@@ -17,12 +17,14 @@ pub struct Args {
     /// Folder that receives `<room name>/` with one model per object capture and the background.
     #[arg(long)]
     out: PathBuf,
-    /// Optimisation steps per object model (default 5000, about 5 minutes on 2 cores); without
-    /// `--object-seconds`, exactly this many, whatever the machine's load (reproducible).
+    /// Optimisation steps per object model (default 2000, the validation suite's budget: about 3
+    /// minutes on one core while another model trains on the other); without `--object-seconds`,
+    /// exactly this many, whatever the machine's load (reproducible).
     #[arg(long)]
     object_steps: Option<u64>,
-    /// Optimisation steps of the background model (default 5000, about 10 minutes on 2 cores);
-    /// without `--background-seconds`, exactly this many.
+    /// Optimisation steps of the background model (default 3000, the validation suite's budget:
+    /// about 13 minutes on one core beside the objects); without `--background-seconds`, exactly
+    /// this many.
     #[arg(long)]
     background_steps: Option<u64>,
     /// Time budget per object model, seconds, instead of steps (with `--object-steps`, whichever
