@@ -63,20 +63,6 @@ pub struct Rendered {
 /// Rays rendered per batch.
 const RAYS_PER_BATCH: usize = 4096;
 
-/// Renders the pixels of `view` that `wanted` selects (by row-major index; the others stay black) from
-/// `field` (model frame) inside `bounds` with light code `light`.
-pub fn render_view(
-    field: &NeusField<f32>,
-    view: &FrameView,
-    bounds: &Aabb,
-    light: u32,
-    options: &RenderOptions,
-    wanted: &dyn Fn(usize) -> bool,
-) -> Rendered {
-    let surfaces = view_surfaces(field, view, bounds, options, wanted);
-    shade_view(field, view, &surfaces, light, options)
-}
-
 /// Where the rays of a view's selected pixels first meet the model's surface, batch by batch. The
 /// geometry does not depend on the light code, so one search serves renders under every code.
 #[derive(Clone, Debug, Default)]
@@ -458,31 +444,32 @@ pub const LIGHT_CHECK_VIEWS: usize = 3;
 
 /// The light-code check: each augmentation map's re-lit views against renders with the map's code and
 /// with code 0 (rendered once per view), errors summed over up to [`LIGHT_CHECK_VIEWS`] views.
+/// `surfaces[i]` is what the held-out render of `views[i]` found (the geometry does not depend on
+/// the light code).
 fn light_code_checks(
     field: &NeusField<f32>,
     views: &[FrameView],
-    bounds: &Aabb,
+    surfaces: &[ViewSurfaces],
     augmentation: &Augmentation,
     first_augmented: usize,
     options: &RenderOptions,
 ) -> Vec<LightCodeCheck> {
-    let picked: Vec<&FrameView> = match views.len() {
+    let picked: Vec<usize> = match views.len() {
         0 => Vec::new(),
-        n if n <= LIGHT_CHECK_VIEWS => views.iter().collect(),
+        n if n <= LIGHT_CHECK_VIEWS => (0..n).collect(),
         n => (0..LIGHT_CHECK_VIEWS)
-            .map(|k| &views[k * (n - 1) / (LIGHT_CHECK_VIEWS - 1)])
+            .map(|k| k * (n - 1) / (LIGHT_CHECK_VIEWS - 1))
             .collect(),
     };
     let mut coded = vec![ViewScore::default(); augmentation.len()];
     let mut plain = vec![ViewScore::default(); augmentation.len()];
-    for view in picked {
-        let surface = |i: usize| view.class[i] == PixelClass::Surface;
-        let surfaces = view_surfaces(field, view, bounds, options, &surface);
-        let code_0 = shade_view(field, view, &surfaces, 0, options);
+    for v in picked {
+        let (view, surfaces) = (&views[v], &surfaces[v]);
+        let code_0 = shade_view(field, view, surfaces, 0, options);
         for k in 0..augmentation.len() {
             let target = relit_target(view, augmentation, k);
             let code = (first_augmented + k) as u32;
-            let with_code = shade_view(field, view, &surfaces, code, options);
+            let with_code = shade_view(field, view, surfaces, code, options);
             coded[k].add(color_error(view, &with_code.rgb, &target));
             plain[k].add(color_error(view, &code_0.rgb, &target));
         }
@@ -509,9 +496,17 @@ pub fn evaluate(
     let options = RenderOptions::for_diagonal(diag);
     let (mut total, mut errors, mut hit, mut pixels) =
         (ViewScore::default(), Vec::new(), 0usize, 0usize);
+    let mut surfaces = Vec::with_capacity(views.len());
     for view in views {
         let surface = |i: usize| view.class[i] == PixelClass::Surface;
-        let r = render_view(field, view, bounds, view.light as u32, &options, &surface);
+        surfaces.push(view_surfaces(field, view, bounds, &options, &surface));
+        let r = shade_view(
+            field,
+            view,
+            &surfaces[surfaces.len() - 1],
+            view.light as u32,
+            &options,
+        );
         total.add(color_error(view, &r.rgb, &view.rgb));
         errors.extend(distance_errors(view, &r));
         let surface = (0..view.rgb.len()).filter(|&i| view.class[i] == PixelClass::Surface);
@@ -523,7 +518,7 @@ pub fn evaluate(
     let light_codes = light_code_checks(
         field,
         views,
-        bounds,
+        &surfaces,
         augmentation,
         first_augmented,
         &options,
