@@ -613,6 +613,18 @@ mod avx2 {
 mod tests {
     use super::*;
 
+    /// Products `(m, n, k)` that reach every kind of tile: whole and partial column blocks, row
+    /// remainders of 1 to 5, and sums cut into passes of terms.
+    const TILE_SHAPES: [(usize, usize, usize); 7] = [
+        (13, 16, 9),
+        (9, 35, 66),
+        (37, 64, 35),
+        (5, 97, 4),
+        (10, 32, 7),
+        (8, 17, 3),
+        (7, 20, 150),
+    ];
+
     /// The dispatched kernel (AVX-512 or AVX2 on this machine) against a plain triple loop, over widths
     /// that exercise every tile shape, row tails, odd `k`, row-major and column-major `A` and all three
     /// initialisations; in bf16 within the rounding of its operands (2⁻⁸ of each product, relative).
@@ -624,17 +636,7 @@ mod tests {
             (seed >> 8) as f32 / (1 << 24) as f32 - 0.5
         };
         for precision in [Precision::F32, Precision::Bf16] {
-            for &(m, n, k) in &[
-                (1, 1, 1),
-                (7, 3, 5),
-                (13, 16, 9),
-                (9, 35, 66),
-                (37, 64, 35),
-                (5, 97, 4),
-                (10, 32, 7),
-                (8, 17, 3),
-                (7, 20, 150),
-            ] {
+            for &(m, n, k) in [(1, 1, 1), (7, 3, 5)].iter().chain(&TILE_SHAPES) {
                 // Column-major A with padding, then row-major A with padding.
                 for (a_rs, a_cs) in [(1, m + 2), (k + 3, 1)] {
                     let a: Vec<f32> = (0..(m + 1) * (k + 3) + (k + 1) * (m + 2))
@@ -697,15 +699,7 @@ mod tests {
             return;
         }
         let value = |i: usize| ((i * 7919 % 1000) as f32 - 500.0) / 317.0;
-        for &(m, n, k) in &[
-            (13, 16, 9),
-            (9, 35, 66),
-            (37, 64, 35),
-            (5, 97, 4),
-            (10, 32, 7),
-            (8, 17, 3),
-            (7, 20, 150),
-        ] {
+        for &(m, n, k) in &TILE_SHAPES {
             let a: Vec<f32> = (0..m * k).map(value).collect();
             let ldb = padded(n);
             let b: Vec<f32> = (0..k * ldb).map(|i| value(i + 31)).collect();

@@ -93,7 +93,14 @@ pub fn view_surfaces(
                     (far > near).then_some((i, d, near, far))
                 })
                 .collect();
-            find_surfaces(field, view.origin(), &rays, options, &mut tape)
+            find_surfaces(
+                field,
+                view.origin(),
+                &rays,
+                options,
+                &mut tape,
+                SEARCH_ROUND,
+            )
         })
         .collect();
     ViewSurfaces { batches }
@@ -140,22 +147,12 @@ struct Hit {
 
 /// First zero crossing of the SDF along each ray, from `options.coarse` SDF samples.
 ///
-/// The samples are taken front to back in rounds of [`SEARCH_ROUND`]; a ray leaves the search at the
+/// The samples are taken front to back in rounds of `round` ([`SEARCH_ROUND`] outside tests); a ray
+/// leaves the search at the
 /// round where it crosses. The SDF of a point does not depend on the batch it is computed in, so the
 /// crossings are those of all samples taken at once, for a fraction of the samples: most rays meet the
 /// model well before the far side of its box.
 fn find_surfaces(
-    field: &NeusField<f32>,
-    o: Vec3,
-    rays: &[(usize, Vec3, f32, f32)],
-    options: &RenderOptions,
-    tape: &mut Tape<f32>,
-) -> Vec<Hit> {
-    find_surfaces_in_rounds(field, o, rays, options, tape, SEARCH_ROUND)
-}
-
-/// [`find_surfaces`] with `round` samples per ray and round.
-fn find_surfaces_in_rounds(
     field: &NeusField<f32>,
     o: Vec3,
     rays: &[(usize, Vec3, f32, f32)],
@@ -242,6 +239,7 @@ impl RaySearch {
         })
     }
 }
+
 /// Volume-renders a shell around each found surface into `out`.
 fn shade(
     field: &NeusField<f32>,
@@ -499,14 +497,9 @@ pub fn evaluate(
     let mut surfaces = Vec::with_capacity(views.len());
     for view in views {
         let surface = |i: usize| view.class[i] == PixelClass::Surface;
-        surfaces.push(view_surfaces(field, view, bounds, &options, &surface));
-        let r = shade_view(
-            field,
-            view,
-            &surfaces[surfaces.len() - 1],
-            view.light as u32,
-            &options,
-        );
+        let found = view_surfaces(field, view, bounds, &options, &surface);
+        let r = shade_view(field, view, &found, view.light as u32, &options);
+        surfaces.push(found);
         total.add(color_error(view, &r.rgb, &view.rgb));
         errors.extend(distance_errors(view, &r));
         let surface = (0..view.rgb.len()).filter(|&i| view.class[i] == PixelClass::Surface);
@@ -559,10 +552,10 @@ mod tests {
             .collect();
         let mut tape = Tape::default();
         let k = options.coarse;
-        let once = find_surfaces_in_rounds(&field, o, &rays, &options, &mut tape, k);
+        let once = find_surfaces(&field, o, &rays, &options, &mut tape, k);
         assert!(once.len() > 50 && once.len() < rays.len(), "{}", once.len());
         for round in [1, 5, SEARCH_ROUND] {
-            let rounds = find_surfaces_in_rounds(&field, o, &rays, &options, &mut tape, round);
+            let rounds = find_surfaces(&field, o, &rays, &options, &mut tape, round);
             assert_eq!(rounds, once, "rounds of {round}");
         }
     }
