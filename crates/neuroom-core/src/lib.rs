@@ -12,6 +12,7 @@ pub mod formats;
 pub mod image;
 pub mod mesh;
 pub mod metrics;
+pub mod nearest;
 pub mod obb;
 pub mod pose;
 pub mod ray;

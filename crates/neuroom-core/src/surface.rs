@@ -8,10 +8,10 @@
 
 use std::collections::HashMap;
 
-use crate::mesh::{TriMesh, closest_point_on_triangle};
+use crate::mesh::TriMesh;
+use crate::nearest::SurfaceDistance;
 use crate::winding::WindingTree;
 use glam::{UVec3, Vec3};
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
 /// The six tetrahedra of a cube, as corner numbers (bit 0 = +x, bit 1 = +y, bit 2 = +z), all sharing the
@@ -212,69 +212,6 @@ pub fn outer_surface_samples(mesh: &TriMesh, samples: usize) -> Vec<Vec3> {
         .collect()
 }
 
-/// Distances from points to a mesh's surface: a k-d tree of points spread densely over the surface,
-/// each tagged with its triangle, proposes the triangles near a query; the distance is the exact
-/// point–triangle distance to the nearest of those.
-pub struct SurfaceDistance<'a> {
-    mesh: &'a TriMesh,
-    tree: ImmutableKdTree<f32, 3>,
-    triangle_of: Vec<u32>,
-}
-
-/// Spacing of the points that propose triangles (metres): the distance is exact whenever the nearest
-/// triangle holds one of the proposing points near the query, which this spacing makes the rule.
-const PROPOSAL_SPACING: f32 = 0.003;
-/// Bounds on the number of proposing points per mesh.
-const PROPOSALS: (usize, usize) = (20_000, 2_000_000);
-/// Proposing points consulted per query.
-const NEAREST_PROPOSALS: usize = 8;
-
-impl<'a> SurfaceDistance<'a> {
-    fn new(mesh: &'a TriMesh) -> Self {
-        Self::with_spacing(mesh, PROPOSAL_SPACING)
-    }
-
-    /// As `SurfaceDistance::new`, the proposing points `spacing` apart (within `PROPOSALS`): a
-    /// query is given the distance to a triangle at most about that far from its nearest.
-    pub fn with_spacing(mesh: &'a TriMesh, spacing: f32) -> Self {
-        let wanted = (mesh.area() / (spacing * spacing)) as usize;
-        let samples = mesh.sample_surface_on_triangles(wanted.clamp(PROPOSALS.0, PROPOSALS.1));
-        let points: Vec<[f32; 3]> = samples.iter().map(|(p, _)| p.to_array()).collect();
-        Self {
-            mesh,
-            // Immutable: balanced at construction and indifferent to many points sharing a coordinate
-            // (flat faces put many on one plane, which overflows a bucketed mutable tree).
-            tree: ImmutableKdTree::new_from_slice(&points),
-            triangle_of: samples.iter().map(|(_, t)| *t).collect(),
-        }
-    }
-
-    /// Distance from `q` to the surface.
-    pub fn distance(&self, q: Vec3) -> f32 {
-        let near = self
-            .tree
-            .nearest_n::<SquaredEuclidean>(&q.to_array(), NEAREST_PROPOSALS.try_into().unwrap());
-        near.iter()
-            .map(|n| {
-                let t = self.triangle_of[n.item as usize] as usize;
-                closest_point_on_triangle(q, self.mesh.corners(t)).distance(q)
-            })
-            .fold(f32::INFINITY, f32::min)
-    }
-
-    /// Mean distance of `queries` to the surface (infinite when the mesh is empty).
-    fn mean(&self, queries: &[Vec3]) -> f32 {
-        if self.triangle_of.is_empty() {
-            return f32::INFINITY;
-        }
-        if queries.is_empty() {
-            return 0.0;
-        }
-        let sum: f64 = queries.par_iter().map(|q| self.distance(*q) as f64).sum();
-        (sum / queries.len() as f64) as f32
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -338,17 +275,12 @@ mod tests {
         assert!(c.mean < 1e-5, "{c:?}");
         // Point-to-point nearest neighbours of the same samples would lie millimetres apart.
         let (p, q) = (coarse.sample_surface(5_000), fine.sample_surface(5_000));
-        let tree: ImmutableKdTree<f32, 3> =
-            ImmutableKdTree::new_from_slice(&q.iter().map(|v| v.to_array()).collect::<Vec<_>>());
-        let point_to_point = p
-            .iter()
-            .map(|v| {
-                tree.nearest_one::<SquaredEuclidean>(&v.to_array())
-                    .distance
-                    .sqrt()
-            })
-            .sum::<f32>()
-            / p.len() as f32;
+        let nearest = |v: &Vec3| {
+            q.iter()
+                .map(|w| w.distance(*v))
+                .fold(f32::INFINITY, f32::min)
+        };
+        let point_to_point = p[..500].iter().map(nearest).sum::<f32>() / 500.0;
         assert!(point_to_point > 0.003, "{point_to_point}");
     }
 

@@ -131,7 +131,7 @@ fn build(triangles: &mut [[DVec3; 3]], first: usize, count: usize, nodes: &mut V
         children: None,
     });
     if count > LEAF_TRIANGLES {
-        split_at_median(part);
+        split_at_median(part, |t| (t[0] + t[1] + t[2]) / 3.0);
         let half = count / 2;
         let left = build(triangles, first, half, nodes);
         let right = build(triangles, first + half, count - half, nodes);
@@ -140,11 +140,10 @@ fn build(triangles: &mut [[DVec3; 3]], first: usize, count: usize, nodes: &mut V
     index
 }
 
-/// Reorders `part` so its first half holds the triangles whose centroids lie lowest along the axis where
-/// the centroids spread most.
-fn split_at_median(part: &mut [[DVec3; 3]]) {
-    let centroid = |t: &[DVec3; 3]| (t[0] + t[1] + t[2]) / 3.0;
-    let (lo, hi) = part.iter().map(centroid).fold(
+/// Reorders `part` so its first half holds the items whose `centroid` lies lowest along the axis where
+/// the centroids spread most (the split of a bounding-volume tree over triangles).
+pub(crate) fn split_at_median<T>(part: &mut [T], centroid: impl Fn(&T) -> DVec3) {
+    let (lo, hi) = part.iter().map(&centroid).fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
         |(lo, hi), c| (lo.min(c), hi.max(c)),
     );

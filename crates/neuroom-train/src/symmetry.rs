@@ -12,7 +12,8 @@ use neuroom_core::mesh::TriMesh;
 use neuroom_core::metrics::Symmetry;
 use rayon::prelude::*;
 
-use neuroom_core::surface::{SurfaceDistance, outer_surface_samples};
+use neuroom_core::nearest::SurfaceDistance;
+use neuroom_core::surface::outer_surface_samples;
 
 /// Points spread over the outer surface and turned.
 const SAMPLES: usize = 4000;
@@ -25,14 +26,10 @@ const ODD_TURNS: [f32; 2] = [0.37, 1.0];
 /// for a circle stays within it (0.5 % of its diameter), and so does the blender-lite stool turned by a
 /// quarter (1.2 mm); a handle or a drawer front does not.
 const TOLERANCE: f32 = 0.005;
-/// Least tolerance, metres: three times [`PROPOSAL_SPACING`]. A picture whose canvas lies 5 mm in front
-/// of its backing is not alike turned by half a turn (it lands 8 mm off).
+/// Least tolerance, metres: a picture whose canvas lies 5 mm in front of its backing is not alike
+/// turned by half a turn (it lands 8 mm off), while a polygon standing for a small round part stays
+/// within it.
 const MIN_TOLERANCE: f32 = 0.003;
-/// Spacing of the points through which the distance to the surface finds its triangles (metres): a
-/// point amid thin triangles (a fan of slivers around the centre of a disc) may be given the distance
-/// to a neighbouring one, about this far off. At the chamfer's 3 mm a round lamp's turned points landed
-/// up to 7 mm off its surface; at 1 mm, within 0.9 mm.
-const PROPOSAL_SPACING: f32 = 0.001;
 
 /// The symmetry of `mesh` (canonical frame, z up) about its vertical axis. An empty mesh has none.
 pub fn shape_symmetry(mesh: &TriMesh) -> Symmetry {
@@ -46,7 +43,7 @@ pub fn shape_symmetry(mesh: &TriMesh) -> Symmetry {
     let centroid = samples.iter().copied().sum::<Vec3>() / samples.len() as f32;
     let axis = Vec3::new(centroid.x, centroid.y, 0.0);
     let tolerance = (TOLERANCE * (hi - lo).truncate().length()).max(MIN_TOLERANCE);
-    let surface = SurfaceDistance::with_spacing(mesh, PROPOSAL_SPACING);
+    let surface = SurfaceDistance::new(mesh);
     let keeps = |angle: f32| {
         let turn = Quat::from_rotation_z(angle);
         samples
