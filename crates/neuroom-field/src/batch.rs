@@ -124,6 +124,29 @@ impl<T: Real> NeusField<T> {
             });
     }
 
+    /// After a [`NeusField::forward`] with [`Outputs::Full`], the colour of the same points and
+    /// directions under other appearance and light `codes` (object codes as before): only the colour
+    /// network runs again, on the geometry features and normals the tape holds, so the colours are the
+    /// bits a full forward pass with these codes gives. Read them with [`Tape::copy_rgb`].
+    ///
+    /// # Panics
+    /// When the tape's last forward pass was not a full one.
+    pub fn recolor(&self, dirs: &[[T; 3]], codes: &CodeSet, tape: &mut Tape<T>) {
+        let pack = &tape.pack;
+        tape.chunks[..tape.used]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(k, ws)| {
+                assert_eq!(
+                    ws.outputs(),
+                    Some(Outputs::Full),
+                    "recolor needs a full forward"
+                );
+                let (s, e) = (k * CHUNK, k * CHUNK + ws.len());
+                self.color_forward(pack, &dirs[s..e], &codes.slice(s, e), ws);
+            });
+    }
+
     /// Backward pass after [`NeusField::forward`] with the same `codes` and parameters: adds every parameter gradient to
     /// `grads` (full shape, hash group included) and, with `d_points`, writes `∂loss/∂x` per point. The sums
     /// are cut by the batch into a fixed number of groups, so the gradients do not depend on the thread

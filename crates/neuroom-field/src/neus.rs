@@ -277,6 +277,11 @@ impl<T: Real> Workspace<T> {
         self.n
     }
 
+    /// The outputs the last forward pass computed (`None` before any).
+    pub fn outputs(&self) -> Option<Outputs> {
+        self.outputs
+    }
+
     /// Whether the last forward pass had no points.
     pub fn is_empty(&self) -> bool {
         self.n == 0
@@ -640,7 +645,7 @@ impl<T: Real> NeusField<T> {
 
     /// Colour network forward. Input row `[feature, appearance, light, SH(dir), normal]`; the codes enter
     /// through the first layer's pre-activation (see [`NeusField::code_columns`]), the rest row by row.
-    fn color_forward(
+    pub(crate) fn color_forward(
         &self,
         pack: &FieldPack<T>,
         dirs: &[[T; 3]],

@@ -675,3 +675,39 @@ fn mlp_split_gradients() {
         }
     }
 }
+
+/// Recolouring a full forward pass under other appearance and light codes gives the bits a full pass
+/// with those codes gives, over several chunks and with per-point codes.
+#[test]
+fn recolor_matches_a_full_forward_with_the_other_codes() {
+    let field = small_field(0);
+    let n = 700;
+    let points = field_points(&field, n, 11);
+    let dirs: Vec<[f64; 3]> = (0..n)
+        .map(|k| {
+            let a = k as f64 * 0.37;
+            [a.cos() * 0.6, a.sin() * 0.6, 0.8]
+        })
+        .collect();
+    let per_point: Vec<u32> = (0..n as u32).map(|k| k % 2).collect();
+    let first = CodeSet::default();
+    let other = CodeSet {
+        appearance: Codes::PerPoint(&per_point),
+        light: Codes::Fixed(1),
+        ..CodeSet::default()
+    };
+    let rgb_of = |tape: &Tape<f64>| {
+        let mut rgb = vec![0.0; 3 * n];
+        tape.copy_rgb(&mut rgb);
+        rgb
+    };
+    let mut tape = Tape::default();
+    field.forward(&points, &dirs, &first, Outputs::Full, &mut tape);
+    let before = rgb_of(&tape);
+    field.recolor(&dirs, &other, &mut tape);
+    let mut full = Tape::default();
+    field.forward(&points, &dirs, &other, Outputs::Full, &mut full);
+    let want = rgb_of(&full);
+    assert_eq!(rgb_of(&tape), want);
+    assert_ne!(before, want, "the codes change the colour");
+}

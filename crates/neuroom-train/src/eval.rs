@@ -106,27 +106,29 @@ pub fn view_surfaces(
     ViewSurfaces { batches }
 }
 
-/// Renders `view` where `surfaces` found the model, with light code `light` (other pixels black).
+/// Renders `view` where `surfaces` found the model (other pixels black), once per light code of
+/// `lights`: the geometry is computed once, the colour once per code.
 pub fn shade_view(
     field: &NeusField<f32>,
     view: &FrameView,
     surfaces: &ViewSurfaces,
-    light: u32,
+    lights: &[u32],
     options: &RenderOptions,
-) -> Rendered {
+) -> Vec<Rendered> {
     let n = view.rgb.len();
-    let mut out = Rendered {
+    let blank = Rendered {
         rgb: vec![[0.0; 3]; n],
         distance: vec![0.0; n],
         opacity: vec![0.0; n],
     };
+    let mut out = vec![blank; lights.len()];
     let mut tape = Tape::default();
     for hits in &surfaces.batches {
         shade(
             field,
             view.origin(),
             hits,
-            light,
+            lights,
             options,
             &mut tape,
             &mut out,
@@ -240,15 +242,15 @@ impl RaySearch {
     }
 }
 
-/// Volume-renders a shell around each found surface into `out`.
+/// Volume-renders a shell around each found surface into `out[k]` under light code `lights[k]`.
 fn shade(
     field: &NeusField<f32>,
     o: Vec3,
     hits: &[Hit],
-    light: u32,
+    lights: &[u32],
     options: &RenderOptions,
     tape: &mut Tape<f32>,
-    out: &mut Rendered,
+    out: &mut [Rendered],
 ) {
     let k = options.fine.max(2);
     let inv_s = field.inv_s();
@@ -264,23 +266,48 @@ fn shade(
         points.extend(ts.iter().map(|t| (o + *t * d).to_array()));
         dirs.extend(std::iter::repeat_n(d.to_array(), k));
     }
-    let codes = CodeSet {
+    let codes = |light: u32| CodeSet {
         light: Codes::Fixed(light),
         ..CodeSet::default()
     };
-    field.forward(&points, &dirs, &codes, Outputs::Full, tape);
     let mut sdf = vec![0.0; points.len()];
     let mut rgb = vec![0.0; 3 * points.len()];
-    tape.copy_sdf(&mut sdf);
-    tape.copy_rgb(&mut rgb);
-    let (rgb3, _) = rgb.as_chunks::<3>();
+    for (c, (&light, out)) in lights.iter().zip(out.iter_mut()).enumerate() {
+        if c == 0 {
+            field.forward(&points, &dirs, &codes(light), Outputs::Full, tape);
+            tape.copy_sdf(&mut sdf);
+        } else {
+            field.recolor(&dirs, &codes(light), tape);
+        }
+        tape.copy_rgb(&mut rgb);
+        let samples = ShellSamples {
+            t: &all_t,
+            sdf: &sdf,
+            rgb: rgb.as_chunks::<3>().0,
+            per_ray: k,
+        };
+        render_shells(hits, &samples, inv_s, out);
+    }
+}
+
+/// The shell samples of a batch of rays, `per_ray` consecutive samples a ray.
+struct ShellSamples<'a> {
+    t: &'a [f32],
+    sdf: &'a [f32],
+    rgb: &'a [[f32; 3]],
+    per_ray: usize,
+}
+
+/// NeuS volume rendering of each hit's shell into its pixel of `out`.
+fn render_shells(hits: &[Hit], samples: &ShellSamples, inv_s: f32, out: &mut Rendered) {
+    let k = samples.per_ray;
     let mut ray_tape = RayTape::default();
     for (r, &Hit { pixel: i, .. }) in hits.iter().enumerate() {
         let s = r * k..(r + 1) * k;
         let res = render_ray(
-            &all_t[s.clone()],
-            &sdf[s.clone()],
-            &rgb3[s],
+            &samples.t[s.clone()],
+            &samples.sdf[s.clone()],
+            &samples.rgb[s],
             inv_s,
             &mut ray_tape,
         );
@@ -440,49 +467,62 @@ pub struct LightCodeCheck {
 /// from an unusual side, all of them would multiply the evaluation time by the number of maps.
 pub const LIGHT_CHECK_VIEWS: usize = 3;
 
-/// The light-code check: each augmentation map's re-lit views against renders with the map's code and
-/// with code 0 (rendered once per view), errors summed over up to [`LIGHT_CHECK_VIEWS`] views.
-/// `surfaces[i]` is what the held-out render of `views[i]` found (the geometry does not depend on
-/// the light code).
-fn light_code_checks(
-    field: &NeusField<f32>,
-    views: &[FrameView],
-    surfaces: &[ViewSurfaces],
-    augmentation: &Augmentation,
-    first_augmented: usize,
-    options: &RenderOptions,
-) -> Vec<LightCodeCheck> {
-    let picked: Vec<usize> = match views.len() {
+/// The held-out views the light-code check uses: up to [`LIGHT_CHECK_VIEWS`] of `views`, spread
+/// over the capture.
+fn light_check_views(views: usize) -> Vec<usize> {
+    match views {
         0 => Vec::new(),
         n if n <= LIGHT_CHECK_VIEWS => (0..n).collect(),
         n => (0..LIGHT_CHECK_VIEWS)
             .map(|k| k * (n - 1) / (LIGHT_CHECK_VIEWS - 1))
             .collect(),
-    };
-    let mut coded = vec![ViewScore::default(); augmentation.len()];
-    let mut plain = vec![ViewScore::default(); augmentation.len()];
-    for v in picked {
-        let (view, surfaces) = (&views[v], &surfaces[v]);
-        let code_0 = shade_view(field, view, surfaces, 0, options);
-        for k in 0..augmentation.len() {
-            let target = relit_target(view, augmentation, k);
-            let code = (first_augmented + k) as u32;
-            let with_code = shade_view(field, view, surfaces, code, options);
-            coded[k].add(color_error(view, &with_code.rgb, &target));
-            plain[k].add(color_error(view, &code_0.rgb, &target));
-        }
     }
-    (0..augmentation.len())
-        .map(|k| LightCodeCheck {
-            name: augmentation.names[k].clone(),
-            psnr_with_code_db: coded[k].psnr(),
-            psnr_with_code_0_db: plain[k].psnr(),
-        })
-        .collect()
 }
 
-/// Renders every held-out view with its own light code and scores it; then runs the light-code check
-/// (augmentation map `k` has light code `first_augmented + k`).
+/// The light-code check's errors summed so far: per augmentation map, the renders with its code and
+/// with code 0 against the view re-lit by the map.
+struct LightCheckSums {
+    coded: Vec<ViewScore>,
+    plain: Vec<ViewScore>,
+}
+
+impl LightCheckSums {
+    fn new(maps: usize) -> Self {
+        Self {
+            coded: vec![ViewScore::default(); maps],
+            plain: vec![ViewScore::default(); maps],
+        }
+    }
+
+    /// Adds one view: `code_0` rendered with code 0, `with_code[k]` with map `k`'s code.
+    fn add(
+        &mut self,
+        view: &FrameView,
+        augmentation: &Augmentation,
+        code_0: &Rendered,
+        with_code: &[Rendered],
+    ) {
+        for (k, rendered) in with_code.iter().enumerate() {
+            let target = relit_target(view, augmentation, k);
+            self.coded[k].add(color_error(view, &rendered.rgb, &target));
+            self.plain[k].add(color_error(view, &code_0.rgb, &target));
+        }
+    }
+
+    fn checks(&self, augmentation: &Augmentation) -> Vec<LightCodeCheck> {
+        (0..augmentation.len())
+            .map(|k| LightCodeCheck {
+                name: augmentation.names[k].clone(),
+                psnr_with_code_db: self.coded[k].psnr(),
+                psnr_with_code_0_db: self.plain[k].psnr(),
+            })
+            .collect()
+    }
+}
+
+/// Renders every held-out view with its own light code and scores it; the views of the light-code
+/// check are rendered in the same pass with code 0 and each augmentation map's code (map `k` has light
+/// code `first_augmented + k`).
 pub fn evaluate(
     field: &NeusField<f32>,
     views: &[FrameView],
@@ -494,34 +534,35 @@ pub fn evaluate(
     let options = RenderOptions::for_diagonal(diag);
     let (mut total, mut errors, mut hit, mut pixels) =
         (ViewScore::default(), Vec::new(), 0usize, 0usize);
-    let mut surfaces = Vec::with_capacity(views.len());
-    for view in views {
+    let checked = light_check_views(views.len());
+    let mut light_check = LightCheckSums::new(augmentation.len());
+    for (v, view) in views.iter().enumerate() {
+        let mut lights = vec![view.light as u32];
+        if checked.contains(&v) && !augmentation.is_empty() {
+            lights.push(0);
+            lights.extend((0..augmentation.len()).map(|k| (first_augmented + k) as u32));
+        }
         let surface = |i: usize| view.class[i] == PixelClass::Surface;
         let found = view_surfaces(field, view, bounds, &options, &surface);
-        let r = shade_view(field, view, &found, view.light as u32, &options);
-        surfaces.push(found);
+        let renders = shade_view(field, view, &found, &lights, &options);
+        let r = &renders[0];
         total.add(color_error(view, &r.rgb, &view.rgb));
-        errors.extend(distance_errors(view, &r));
+        errors.extend(distance_errors(view, r));
         let surface = (0..view.rgb.len()).filter(|&i| view.class[i] == PixelClass::Surface);
         for i in surface {
             pixels += 1;
             hit += usize::from(r.opacity[i] > 0.5);
         }
+        if let [_, code_0, with_code @ ..] = renders.as_slice() {
+            light_check.add(view, augmentation, code_0, with_code);
+        }
     }
-    let light_codes = light_code_checks(
-        field,
-        views,
-        &surfaces,
-        augmentation,
-        first_augmented,
-        &options,
-    );
     EvalReport {
         views: views.len(),
         psnr_db: total.psnr(),
         median_depth_error_m: median(errors),
         coverage: hit as f32 / pixels.max(1) as f32,
-        light_codes,
+        light_codes: light_check.checks(augmentation),
     }
 }
 
