@@ -9,6 +9,7 @@ use crate::neus::{CHUNK, CodeSet, Codes, FieldPack, NeusField, Outputs, Workspac
 use crate::params::Params;
 use crate::real::Real;
 use rayon::prelude::*;
+use std::sync::Mutex;
 
 /// Most chunks per rayon task in [`NeusField::forward`]: the hash levels run outermost over a block, so a
 /// level's table is read into L2 once per block rather than once per chunk (8 192 points make each of the
@@ -45,6 +46,58 @@ pub struct Tape<T> {
     partials: Vec<Params<T>>,
     eikonal_points: Vec<[T; 3]>,
     eikonal_objects: Vec<u32>,
+}
+
+/// Tapes a field keeps for its SDF queries without a tape of their own (`Field::sdf`,
+/// `Field::sdf_gradient`: a renderer's coarse passes and sphere tracing, single points). A tape's
+/// buffers (about a megabyte of zeroed memory per chunk) are allocated once and reused, rather than
+/// allocated and zeroed for every query. Tapes are the field's own (their buffers fit its networks);
+/// at most [`SPARE_TAPES`] are kept, each of at most [`SPARE_CHUNKS`] chunks, so a field keeps a
+/// bounded amount of memory however large its queries were. A clone of the field starts with none.
+#[derive(Default)]
+pub struct SpareTapes<T>(Mutex<Vec<Tape<T>>>);
+
+/// Most tapes a field keeps: one per thread querying it at once on a small machine.
+const SPARE_TAPES: usize = 4;
+/// Largest tape kept, in chunks: a batch larger than this allocates its own, its buffers' zeroing
+/// small against its forward pass.
+const SPARE_CHUNKS: usize = 16;
+
+impl<T> SpareTapes<T> {
+    /// A kept tape, or a new empty one.
+    pub(crate) fn take(&self) -> Tape<T>
+    where
+        Tape<T>: Default,
+    {
+        self.0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .pop()
+            .unwrap_or_default()
+    }
+
+    /// Keeps `tape` for a later query, unless it is too large or enough are kept.
+    pub(crate) fn give_back(&self, tape: Tape<T>) {
+        if tape.chunks.len() > SPARE_CHUNKS {
+            return;
+        }
+        let mut kept = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        if kept.len() < SPARE_TAPES {
+            kept.push(tape);
+        }
+    }
+}
+
+impl<T> Clone for SpareTapes<T> {
+    fn clone(&self) -> Self {
+        Self(Mutex::new(Vec::new()))
+    }
+}
+
+impl<T> std::fmt::Debug for SpareTapes<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SpareTapes")
+    }
 }
 
 impl<T: Real> Tape<T> {
@@ -284,5 +337,41 @@ mod tests {
         assert_eq!(block_size(1_000, 2), super::BLOCK);
         assert_eq!(block_size(3, 16), 1);
         assert_eq!(block_size(0, 4), 1);
+    }
+}
+
+#[cfg(test)]
+mod spare_tape_tests {
+    use super::{SPARE_CHUNKS, SPARE_TAPES};
+    use crate::field::Field;
+    use crate::neus::{CHUNK, CodeSet, NeusConfig, NeusField, Outputs};
+    use crate::{Tape, rng::SplitMix};
+    use glam::Vec3;
+
+    /// SDF queries through kept tapes, of sizes up and down, give what a fresh tape gives; a field
+    /// keeps no tape above the size limit and no more than the count limit.
+    #[test]
+    fn kept_tapes_give_the_values_of_fresh_ones_within_their_limits() {
+        let field = NeusField::<f32>::new(NeusConfig::object([0.4, 0.3, 0.5]));
+        let mut rng = SplitMix::new(3);
+        let mut points = |n: usize| -> Vec<Vec3> {
+            (0..n)
+                .map(|_| Vec3::from_array([(); 3].map(|_| rng.next_f64() as f32)) - 0.5)
+                .collect()
+        };
+        for n in [1, 700, 3, (SPARE_CHUNKS + 1) * CHUNK, 40] {
+            let p = points(n);
+            let mut kept = vec![0.0; n];
+            field.sdf(&p, &mut kept);
+            let arrays: Vec<[f32; 3]> = p.iter().map(|v| v.to_array()).collect();
+            let mut tape = Tape::default();
+            field.forward(&arrays, &[], &CodeSet::default(), Outputs::Sdf, &mut tape);
+            let mut fresh = vec![0.0; n];
+            tape.copy_sdf(&mut fresh);
+            assert_eq!(kept, fresh, "{n} points");
+        }
+        let kept = field.spare_tapes.0.lock().unwrap();
+        assert!(kept.len() <= SPARE_TAPES);
+        assert!(kept.iter().all(|t| t.chunks.len() <= SPARE_CHUNKS));
     }
 }

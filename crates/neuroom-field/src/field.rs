@@ -77,7 +77,7 @@ impl Field for NeusField<f32> {
     type Tape = Tape<f32>;
 
     fn sdf(&self, points: &[Vec3], sdf: &mut [f32]) {
-        let mut tape = Tape::default();
+        let mut tape = self.spare_tapes.take();
         NeusField::forward(
             self,
             as_arrays(points),
@@ -87,10 +87,11 @@ impl Field for NeusField<f32> {
             &mut tape,
         );
         tape.copy_sdf(sdf);
+        self.spare_tapes.give_back(tape);
     }
 
     fn sdf_gradient(&self, points: &[Vec3], sdf: &mut [f32], gradient: &mut [Vec3]) {
-        let mut tape = Tape::default();
+        let mut tape = self.spare_tapes.take();
         NeusField::forward(
             self,
             as_arrays(points),
@@ -101,6 +102,7 @@ impl Field for NeusField<f32> {
         );
         tape.copy_sdf(sdf);
         tape.copy_gradient(as_arrays_mut(gradient));
+        self.spare_tapes.give_back(tape);
     }
 
     fn forward(&self, query: &Query, tape: &mut Tape<f32>, out: &mut FieldOutput) {

@@ -315,6 +315,8 @@ pub struct NeusField<T = f32> {
     active_levels: usize,
     lo: [T; 3],
     inv_ext: [T; 3],
+    /// Tapes of finished SDF queries, for the next ones ([`crate::batch::SpareTapes`]).
+    pub(crate) spare_tapes: crate::batch::SpareTapes<T>,
 }
 
 /// Signed distance from `d` (relative to the centre) to a box of half extent `half`, and its gradient.
@@ -403,6 +405,7 @@ impl<T: Real> NeusField<T> {
             active_levels,
             lo,
             inv_ext,
+            spare_tapes: Default::default(),
         }
     }
 
