@@ -55,7 +55,7 @@ pub struct Tape<T> {
 /// at most [`SPARE_TAPES`] are kept, each of at most [`SPARE_CHUNKS`] chunks, so a field keeps a
 /// bounded amount of memory however large its queries were. A clone of the field starts with none.
 #[derive(Default)]
-pub struct SpareTapes<T>(Mutex<Vec<Tape<T>>>);
+pub(crate) struct SpareTapes<T>(Mutex<Vec<Tape<T>>>);
 
 /// Most tapes a field keeps: one per thread querying it at once on a small machine.
 const SPARE_TAPES: usize = 4;
