@@ -150,10 +150,9 @@ struct Hit {
 /// First zero crossing of the SDF along each ray, from `options.coarse` SDF samples.
 ///
 /// The samples are taken front to back in rounds of `round` ([`SEARCH_ROUND`] outside tests); a ray
-/// leaves the search at the
-/// round where it crosses. The SDF of a point does not depend on the batch it is computed in, so the
-/// crossings are those of all samples taken at once, for a fraction of the samples: most rays meet the
-/// model well before the far side of its box.
+/// leaves the search at the round where it crosses. The SDF of a point does not depend on the batch
+/// it is computed in, so the crossings are those of all samples taken at once, for a fraction of the
+/// samples: most rays meet the model well before the far side of its box.
 fn find_surfaces(
     field: &NeusField<f32>,
     o: Vec3,
