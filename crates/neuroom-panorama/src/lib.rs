@@ -9,8 +9,11 @@
 //! - [`cloud`]: coloured surface points of a model, carved by what its captures saw through, splatted
 //!   into a panorama as a cheap render; [`object_model`]: a model's clouds with its box and where it may
 //!   stand.
+//! - [`capture_shading`]: the light an object was captured under, by surface orientation, taken out of
+//!   its cloud's colours.
 //! - [`region`]: where a detector sees an object, and connected regions of a mask on the sphere.
 
+pub mod capture_shading;
 pub mod cloud;
 pub mod database;
 pub mod object_model;
@@ -19,5 +22,5 @@ pub mod region;
 pub mod sphere;
 
 pub use database::{DATABASE_FILE, Database, DatabaseConfig, DatabaseEntry, build_database};
-pub use object_model::{ObjectModel, Support};
+pub use object_model::{ObjectModel, Support, without_capture_shading};
 pub use region::Detection;

@@ -6,6 +6,7 @@ use neuroom_core::obb::OrientedBox;
 use neuroom_core::pose::Pose;
 use serde::{Deserialize, Serialize};
 
+use crate::capture_shading::CaptureShading;
 use crate::cloud::Cloud;
 
 /// Where a model may stand.
@@ -42,4 +43,31 @@ impl ObjectModel {
     pub fn box_at(&self, pose: &Pose) -> OrientedBox {
         OrientedBox::new(*pose, 2.0 * self.half.as_dvec3())
     }
+}
+
+/// `models` with the light they were captured under taken out of their clouds' colours: one
+/// [`CaptureShading`] per capture light, fitted over the fine clouds of every model that
+/// `lights[k]` (the name of model `k`'s capture light) says was captured under it.
+pub fn without_capture_shading(models: Vec<ObjectModel>, lights: &[String]) -> Vec<ObjectModel> {
+    let shading: Vec<CaptureShading> = lights
+        .iter()
+        .map(|light| {
+            let group: Vec<&Cloud> = models
+                .iter()
+                .zip(lights)
+                .filter(|(_, l)| *l == light)
+                .map(|(m, _)| &m.fine)
+                .collect();
+            CaptureShading::fit_shared(&group)
+        })
+        .collect();
+    models
+        .into_iter()
+        .zip(shading)
+        .map(|(model, shading)| ObjectModel {
+            coarse: shading.remove(&model.coarse),
+            fine: shading.remove(&model.fine),
+            ..model
+        })
+        .collect()
 }

@@ -19,6 +19,7 @@ pub mod inspect;
 pub mod locate;
 pub mod locate_photos;
 pub mod masks;
+pub mod overrides;
 pub mod relight;
 pub mod scene;
 pub mod score;

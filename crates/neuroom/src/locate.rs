@@ -37,6 +37,7 @@ use neuroom_panorama::cloud::{FreeSpace, carve, surface_cloud};
 use neuroom_panorama::plane::blur_rgb;
 use neuroom_panorama::{
     DATABASE_FILE, Database, DatabaseConfig, Detection, ObjectModel, Support, build_database,
+    without_capture_shading,
 };
 use neuroom_render::RenderConfig;
 use neuroom_render::scene::{Background, Model, Scene};
@@ -143,6 +144,14 @@ pub struct LocateConfig {
     /// light them from above) may be told apart better under another of their learnt lights.
     #[serde(default)]
     pub object_light: Option<String>,
+    /// Take the light each object was captured under, as it varies with the surface's orientation,
+    /// out of its clouds' colours before the search compares them with the panorama
+    /// ([`without_capture_shading`], one light fitted over all the objects captured under it): a sky
+    /// that lit one side of every object warm and the other blue does not light the room. Off by
+    /// default: measured, it helped the validation suite's playroom a little and cost the bedroom
+    /// preset (docs/experiment-log.md); `bench locate --set` turns it on.
+    #[serde(default)]
+    pub neutral_capture_light: bool,
 }
 
 fn default_local_light() -> Option<LocalLightConfig> {
@@ -164,6 +173,7 @@ impl Default for LocateConfig {
             network: DetectConfig::default(),
             search: SearchConfig::default(),
             object_light: None,
+            neutral_capture_light: false,
         }
     }
 }
@@ -269,6 +279,26 @@ pub fn object_models(
         .collect()
 }
 
+/// The name of the light each object model's clouds are coloured under ([`object_models`], in its
+/// order): the light code `light` names, or the first capture lighting.
+fn cloud_lights(loaded: &RoomModels, light: Option<&str>) -> anyhow::Result<Vec<String>> {
+    loaded
+        .manifest
+        .models
+        .iter()
+        .filter(|entry| entry.kind == ModelKind::Object)
+        .map(|entry| {
+            let code = light_code(entry, light)? as usize;
+            Ok(entry
+                .light_codes
+                .names
+                .get(code)
+                .cloned()
+                .unwrap_or_default())
+        })
+        .collect()
+}
+
 /// How far in front of what a capture frame saw a cloud point must lie to be carved away (metres).
 const CARVE_TOLERANCE: f32 = 0.02;
 
@@ -339,8 +369,12 @@ impl LocateContext {
         let room = read_room(room)?;
         let database = ensure_database(models, &config.database, &mut |_, _| {})?;
         let loaded = load_models(models)?;
-        let objects = object_models(&room, &loaded, config.object_light.as_deref())
+        let mut objects = object_models(&room, &loaded, config.object_light.as_deref())
             .with_context(|| models.join(MANIFEST_FILE).display().to_string())?;
+        if config.neutral_capture_light {
+            let lights = cloud_lights(&loaded, config.object_light.as_deref())?;
+            objects = without_capture_shading(objects, &lights);
+        }
         let scene = empty_scene(&loaded)?;
         let network = match config.detection {
             DetectorChoice::Residual => None,

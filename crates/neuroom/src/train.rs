@@ -97,45 +97,9 @@ impl TrainOptions {
     }
 }
 
-/// `config` with the fields of the JSON object `patch` merged over it (objects merge key by key,
-/// anything else replaces): `{"warmup_steps": 50, "object": {"batch_rays": 4096}}`. For experiments;
-/// the keys are [`TrainConfig`]'s serde names, and an unknown top-level key is an error.
-pub fn with_overrides(
-    config: &TrainConfig,
-    patch: &serde_json::Value,
-) -> anyhow::Result<TrainConfig> {
-    fn merge(into: &mut serde_json::Value, patch: &serde_json::Value) {
-        match (into, patch) {
-            (serde_json::Value::Object(a), serde_json::Value::Object(b)) => {
-                for (k, v) in b {
-                    merge(a.entry(k.clone()).or_insert(serde_json::Value::Null), v);
-                }
-            }
-            (a, b) => *a = b.clone(),
-        }
-    }
-    anyhow::ensure!(
-        patch.is_object(),
-        "training overrides must be a JSON object, not {patch}"
-    );
-    let mut value = serde_json::to_value(config)?;
-    let known = value
-        .as_object()
-        .map(|o| o.keys().cloned().collect::<Vec<_>>());
-    for key in patch.as_object().into_iter().flat_map(|o| o.keys()) {
-        anyhow::ensure!(
-            known.as_ref().is_none_or(|k| k.contains(key)) || is_optional_key(key),
-            "training overrides: no configuration field `{key}`"
-        );
-    }
-    merge(&mut value, patch);
-    serde_json::from_value(value).map_err(|e| anyhow::anyhow!("training overrides: {e}"))
-}
-
-/// Configuration fields left out of the serialised form while they hold their default.
-fn is_optional_key(key: &str) -> bool {
-    matches!(key, "frame_refinement" | "mlp_precision" | "ray_choice")
-}
+/// The configuration fields left out of [`TrainConfig`]'s serialised form while they hold their
+/// default: `neuroom bench train --set` may still set them ([`crate::overrides::with_overrides`]).
+pub const OPTIONAL_KEYS: &[&str] = &["frame_refinement", "mlp_precision", "ray_choice"];
 
 /// The names of the models a room needs (`background` first, then one per object capture): what
 /// `--only` takes.

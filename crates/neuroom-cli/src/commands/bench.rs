@@ -133,6 +133,10 @@ struct LocateArgs {
     /// the object search's objective at the found and at the true poses.
     #[arg(long)]
     objects: bool,
+    /// A JSON object of locate-configuration fields to set over the others (`LocateConfig`'s serde
+    /// names; nested objects merge key by key), for experiments: `{"search": {"min_contrast": 0.01}}`.
+    #[arg(long, value_name = "FILE")]
+    set: Option<PathBuf>,
     /// Print one JSON object per panorama and one for the mean, after the text.
     #[arg(long)]
     json: bool,
@@ -265,19 +269,6 @@ struct FieldArgs {
     mlp_precision: MlpPrecisionArg,
 }
 
-/// `config` with the fields of the JSON object in `path` set over it.
-fn train_overrides(
-    config: &neuroom::train::TrainConfig,
-    path: &std::path::Path,
-) -> anyhow::Result<neuroom::train::TrainConfig> {
-    use anyhow::Context;
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    let patch: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("{}", path.display()))?;
-    neuroom::train::with_overrides(config, &patch).with_context(|| format!("{}", path.display()))
-}
-
 /// Runs the command.
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.which {
@@ -315,7 +306,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             };
             let mut config = options.config();
             if let Some(path) = &a.set {
-                config = train_overrides(&config, path)?;
+                config = neuroom::overrides::from_file(
+                    &config,
+                    path,
+                    neuroom::train::OPTIONAL_KEYS,
+                    "training",
+                )?;
             }
             let report = bench::train(&a.room, &a.model, &config)?;
             println!("{}", bench::describe_train(&report));
@@ -402,6 +398,9 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
     }
     if let Some(w) = a.object_width {
         config.object_width = w as usize;
+    }
+    if let Some(path) = &a.set {
+        config = neuroom::overrides::from_file(&config, path, &[], "locate")?;
     }
     let fit = neuroom::fit::FitConfig {
         preview_height: None,
