@@ -13,6 +13,7 @@
 
 use glam::Vec3;
 use neuroom_core::image::{linear_to_srgb, srgb_to_linear};
+use neuroom_core::stats::upper_median_by;
 
 use crate::cloud::Cloud;
 
@@ -119,7 +120,8 @@ fn robust_plane(normals: &[Vec3], y: &[f32], base: &[f32]) -> (Vec3, f32) {
                 .zip(y)
                 .map(|(n, y)| (y - a - b.dot(*n)).abs())
                 .collect();
-            let scale = (1.4826 * median(&residuals)).max(LEAST_SCALE);
+            let median = upper_median_by(&mut residuals.clone(), f32::total_cmp).unwrap_or(0.0);
+            let scale = (1.4826 * median).max(LEAST_SCALE);
             for ((w, r), b) in weights.iter_mut().zip(&residuals).zip(base) {
                 *w = b / (1.0 + (r / scale).powi(2));
             }
@@ -185,16 +187,6 @@ fn solve4(mut m: [[f64; 4]; 4], mut v: [f64; 4]) -> Option<[f64; 4]> {
         s[c] = (v[c] - tail) / m[c][c];
     }
     Some(s)
-}
-
-/// The median of `values` (0 for none).
-fn median(values: &[f32]) -> f32 {
-    if values.is_empty() {
-        return 0.0;
-    }
-    let mut v = values.to_vec();
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, f32::total_cmp).1
 }
 
 #[cfg(test)]

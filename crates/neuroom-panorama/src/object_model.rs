@@ -49,18 +49,20 @@ impl ObjectModel {
 /// [`CaptureShading`] per capture light, fitted over the fine clouds of every model that
 /// `lights[k]` (the name of model `k`'s capture light) says was captured under it.
 pub fn without_capture_shading(models: Vec<ObjectModel>, lights: &[String]) -> Vec<ObjectModel> {
-    let shading: Vec<CaptureShading> = lights
-        .iter()
-        .map(|light| {
+    let mut fitted: Vec<(&String, CaptureShading)> = Vec::new();
+    for light in lights {
+        if fitted.iter().all(|(l, _)| *l != light) {
             let group: Vec<&Cloud> = models
                 .iter()
                 .zip(lights)
                 .filter(|(_, l)| *l == light)
                 .map(|(m, _)| &m.fine)
                 .collect();
-            CaptureShading::fit_shared(&group)
-        })
-        .collect();
+            fitted.push((light, CaptureShading::fit_shared(&group)));
+        }
+    }
+    let shading_of = |light: &String| fitted.iter().find(|(l, _)| *l == light).map(|(_, s)| *s);
+    let shading: Vec<CaptureShading> = lights.iter().filter_map(shading_of).collect();
     models
         .into_iter()
         .zip(shading)
