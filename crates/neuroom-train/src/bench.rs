@@ -4,7 +4,7 @@
 
 use crate::augment::Augmentation;
 use crate::config::{BudgetClock, TrainConfig};
-use crate::eval::{LightCodeCheck, evaluate, noise_psnr_ceiling};
+use crate::eval::{EvalReport, evaluate, noise_psnr_ceiling};
 use crate::progress::Progress;
 use crate::room::{
     ModelSpec, TrainError, load_model_data, model_specs, truth_chamfer, with_threads,
@@ -41,19 +41,14 @@ pub struct ModelBenchReport {
     pub load_seconds: f64,
     /// Seconds evaluating.
     pub eval_seconds: f64,
-    /// Held-out PSNR (dB) on the model's pixels.
-    pub psnr_db: f64,
+    /// Held-out figures (PSNR, depth error, coverage, light-code check); `None` when the capture keeps
+    /// no held-out views (a `holdout` of 0).
+    pub held_out: Option<EvalReport>,
     /// The held-out PSNR an exact model would reach, estimated from the held-out images' own noise
     /// ([`crate::eval::noise_psnr_ceiling`]).
     pub noise_ceiling_psnr_db: Option<f64>,
-    /// Median held-out distance error (metres).
-    pub median_depth_error_m: f32,
-    /// Fraction of the model's held-out pixels the render hit.
-    pub coverage: f32,
     /// Chamfer distance (metres) to the ground-truth mesh, when there is one.
     pub chamfer_m: Option<Chamfer>,
-    /// Light-code check per augmentation map.
-    pub light_codes: Vec<LightCodeCheck>,
     /// Learned NeuS sharpness.
     pub inv_s: f32,
     /// Mean milliseconds per step, by phase.
@@ -108,13 +103,15 @@ fn bench_model(
             min: fc.bounds_min,
             max: fc.bounds_max,
         };
-        let eval = evaluate(
-            &trainer.field,
-            &data.held_out,
-            &field_bounds,
-            &augmentation,
-            trainer.light_codes().capture,
-        );
+        let held_out = (!data.held_out.is_empty()).then(|| {
+            evaluate(
+                &trainer.field,
+                &data.held_out,
+                &field_bounds,
+                &augmentation,
+                trainer.light_codes().capture,
+            )
+        });
         let chamfer_m = truth_chamfer(spec, &trainer.field, &field_bounds)?;
         Ok(ModelBenchReport {
             room: room.to_string(),
@@ -128,12 +125,9 @@ fn bench_model(
             train_wall_seconds,
             load_seconds,
             eval_seconds: t0.elapsed().as_secs_f64(),
-            psnr_db: eval.psnr_db,
+            held_out,
             noise_ceiling_psnr_db: noise_psnr_ceiling(&data.held_out),
-            median_depth_error_m: eval.median_depth_error_m,
-            coverage: eval.coverage,
             chamfer_m,
-            light_codes: eval.light_codes,
             inv_s: trainer.field.inv_s(),
             step_profile_ms: mean_ms(&trainer.state.profile),
         })

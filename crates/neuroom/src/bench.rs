@@ -159,15 +159,53 @@ pub fn describe_train(r: &neuroom_train::bench::ModelBenchReport) -> String {
             format!(" of CPU per thread ({:.0} s wall)", r.train_wall_seconds)
         }
     };
+    let held_out = r
+        .held_out
+        .as_ref()
+        .map_or("no held-out views".to_string(), |e| {
+            format!(
+                "held-out PSNR {:.2} dB{ceiling}, median depth error {:.1} mm, light codes [{}]",
+                e.psnr_db,
+                e.median_depth_error_m * 1e3,
+                crate::train::light_code_gains(&e.light_codes)
+            )
+        });
     format!(
-        "train {} / {}: {} steps in {:.0} s{clock}, held-out PSNR {:.2} dB{ceiling}, median depth error \
-         {:.1} mm, {chamfer}, light codes [{}]",
-        r.room,
-        r.model,
-        r.steps,
-        r.train_seconds,
-        r.psnr_db,
-        r.median_depth_error_m * 1e3,
-        crate::train::light_code_gains(&r.light_codes)
+        "train {} / {}: {} steps in {:.0} s{clock}, {held_out}, {chamfer}",
+        r.room, r.model, r.steps, r.train_seconds,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use neuroom_train::bench::ModelBenchReport;
+    use neuroom_train::trainer::StepProfile;
+    use neuroom_train::{BudgetClock, ModelKind};
+
+    /// A capture trained without held-out views (`holdout` 0) has no held-out figures to print.
+    #[test]
+    fn a_training_without_held_out_views_says_so() {
+        let report = ModelBenchReport {
+            room: "bedroom".into(),
+            model: "bed".into(),
+            kind: ModelKind::Object,
+            threads: 2,
+            rays: 1000,
+            steps: 10,
+            train_seconds: 1.0,
+            budget_clock: BudgetClock::Wall,
+            train_wall_seconds: 1.0,
+            load_seconds: 0.1,
+            eval_seconds: 0.1,
+            held_out: None,
+            noise_ceiling_psnr_db: None,
+            chamfer_m: None,
+            inv_s: 100.0,
+            step_profile_ms: StepProfile::default(),
+        };
+        let line = describe_train(&report);
+        assert!(line.contains("no held-out views"), "{line}");
+        assert!(!line.contains("PSNR"), "{line}");
+    }
 }
