@@ -15,10 +15,28 @@ use crate::locate::LocateMean;
 /// The `format` of a figure record.
 pub const FIGURES_FORMAT: &str = "neuroom.figures/1";
 
-/// The line before the generated table in the README.
-pub const TABLE_BEGIN: &str = "<!-- figures: generated from bench/figures/*.json by `neuroom bench table --readme README.md` -->";
-/// The line after it.
-pub const TABLE_END: &str = "<!-- end of figures -->";
+/// The two lines of the README between which a generated table stands.
+#[derive(Clone, Copy, Debug)]
+pub struct TableMarkers {
+    /// The line before the table.
+    pub begin: &'static str,
+    /// The line after it.
+    pub end: &'static str,
+}
+
+/// Where the results table stands in the README.
+pub const RESULTS_TABLE: TableMarkers = TableMarkers {
+    begin: "<!-- figures: generated from bench/figures/*.json by `neuroom bench table --readme README.md` -->",
+    end: "<!-- end of figures -->",
+};
+
+/// A figure record as the benchmarks write it: `--label` may rename it before it is written.
+pub trait Record {
+    /// Replaces the row's label.
+    fn relabel(&mut self, label: String);
+    /// Writes the record as pretty JSON, atomically.
+    fn write(&self, path: &Path) -> anyhow::Result<()>;
+}
 
 /// The localization figures of one row: means over the panoramas located.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -151,28 +169,50 @@ impl FigureRecord {
         }
     }
 
-    /// Writes the record as pretty JSON, atomically.
-    pub fn write(&self, path: &Path) -> anyhow::Result<()> {
-        let mut text = serde_json::to_string_pretty(self)?;
-        text.push('\n');
-        neuroom_core::formats::atomic_write(path, text.as_bytes())
-            .with_context(|| format!("{}: cannot write the figure record", path.display()))
-    }
-
     /// Reads a record, naming the file when it is not one.
     pub fn read(path: &Path) -> anyhow::Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("{}: cannot read", path.display()))?;
-        let record: Self = serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a figure record", path.display()))?;
-        anyhow::ensure!(
-            record.format == FIGURES_FORMAT,
-            "{}: format `{}`, expected `{FIGURES_FORMAT}`",
-            path.display(),
-            record.format
-        );
+        let record: Self = read_json(path, "figure record")?;
+        check_format(path, &record.format, FIGURES_FORMAT)?;
         Ok(record)
     }
+}
+
+impl Record for FigureRecord {
+    fn relabel(&mut self, label: String) {
+        self.label = label;
+    }
+
+    fn write(&self, path: &Path) -> anyhow::Result<()> {
+        write_json(path, self, "figure record")
+    }
+}
+
+/// Writes `value` as pretty JSON to `path`, atomically; `what` names it in an error.
+pub(crate) fn write_json<T: Serialize>(path: &Path, value: &T, what: &str) -> anyhow::Result<()> {
+    let mut text = serde_json::to_string_pretty(value)?;
+    text.push('\n');
+    neuroom_core::formats::atomic_write(path, text.as_bytes())
+        .with_context(|| format!("{}: cannot write the {what}", path.display()))
+}
+
+/// Reads `path` as JSON of `T`, naming the file (and `what` it should be) when it is not.
+pub(crate) fn read_json<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    what: &str,
+) -> anyhow::Result<T> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{}: not a {what}", path.display()))
+}
+
+/// Fails, naming the file, when a record's `format` is not `expected`.
+pub(crate) fn check_format(path: &Path, format: &str, expected: &str) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        format == expected,
+        "{}: format `{format}`, expected `{expected}`",
+        path.display()
+    );
+    Ok(())
 }
 
 /// The command line of this process as a user would type it: `neuroom` and its arguments, quoted for
@@ -195,6 +235,14 @@ fn shell_quote(arg: &str) -> String {
 
 /// The records in `dir` (`*.json`), in file-name order.
 pub fn read_records(dir: &Path) -> anyhow::Result<Vec<FigureRecord>> {
+    record_paths(dir)?
+        .iter()
+        .map(|p| FigureRecord::read(p))
+        .collect()
+}
+
+/// The `*.json` files in `dir`, in file-name order; at least one.
+pub(crate) fn record_paths(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let entries =
         std::fs::read_dir(dir).with_context(|| format!("{}: cannot list", dir.display()))?;
     let mut paths: Vec<PathBuf> = entries
@@ -203,7 +251,7 @@ pub fn read_records(dir: &Path) -> anyhow::Result<Vec<FigureRecord>> {
         .collect();
     anyhow::ensure!(!paths.is_empty(), "{}: no figure records", dir.display());
     paths.sort();
-    paths.iter().map(|p| FigureRecord::read(p)).collect()
+    Ok(paths)
 }
 
 /// The results table of `records`, as Markdown: one row per record, and one more for a suite's worst
@@ -247,23 +295,32 @@ fn table_row(label: &str, origin: &str, f: &LocateFigures, date: &str) -> String
     )
 }
 
-/// `readme` with the text between [`TABLE_BEGIN`] and [`TABLE_END`] replaced by `table`.
-pub fn replace_table(readme: &str, table: &str) -> anyhow::Result<String> {
+/// `readme` with the text between the two `markers` replaced by `table`.
+pub fn replace_table(readme: &str, markers: &TableMarkers, table: &str) -> anyhow::Result<String> {
+    let (begin, end) = (markers.begin, markers.end);
     let (before, rest) = readme
-        .split_once(TABLE_BEGIN)
-        .with_context(|| format!("no line `{TABLE_BEGIN}` to put the table after"))?;
+        .split_once(begin)
+        .with_context(|| format!("no line `{begin}` to put the table after"))?;
     let (_, after) = rest
-        .split_once(TABLE_END)
-        .with_context(|| format!("no line `{TABLE_END}` after `{TABLE_BEGIN}`"))?;
-    Ok(format!("{before}{TABLE_BEGIN}\n{table}{TABLE_END}{after}"))
+        .split_once(end)
+        .with_context(|| format!("no line `{end}` after `{begin}`"))?;
+    Ok(format!("{before}{begin}\n{table}{end}{after}"))
 }
 
-/// Puts `table` into the README at `path` (see [`replace_table`]) and says whether that changed it;
-/// with `write` false it only says so, changing nothing.
-pub fn update_readme(path: &Path, table: &str, write: bool) -> anyhow::Result<bool> {
+/// Puts each table between its markers into the README at `path` (see [`replace_table`]) and says
+/// whether that changed it; with `write` false it only says so, changing nothing.
+pub fn update_readme(
+    path: &Path,
+    tables: &[(TableMarkers, String)],
+    write: bool,
+) -> anyhow::Result<bool> {
     let readme = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read", path.display()))?;
-    let updated = replace_table(&readme, table).with_context(|| format!("{}", path.display()))?;
+    let mut updated = readme.clone();
+    for (markers, table) in tables {
+        updated = replace_table(&updated, markers, table)
+            .with_context(|| format!("{}", path.display()))?;
+    }
     let changed = updated != readme;
     if changed && write {
         neuroom_core::formats::atomic_write(path, updated.as_bytes())?;
@@ -312,13 +369,14 @@ mod tests {
 
     #[test]
     fn the_table_replaces_only_the_text_between_the_markers() {
-        let readme = format!("intro\n{TABLE_BEGIN}\nold table\n{TABLE_END}\nafter\n");
-        let replaced = replace_table(&readme, "new table\n").unwrap();
+        let TableMarkers { begin, end } = RESULTS_TABLE;
+        let readme = format!("intro\n{begin}\nold table\n{end}\nafter\n");
+        let replaced = replace_table(&readme, &RESULTS_TABLE, "new table\n").unwrap();
         assert_eq!(
             replaced,
-            format!("intro\n{TABLE_BEGIN}\nnew table\n{TABLE_END}\nafter\n")
+            format!("intro\n{begin}\nnew table\n{end}\nafter\n")
         );
-        assert!(replace_table("no markers", "t").is_err());
+        assert!(replace_table("no markers", &RESULTS_TABLE, "t").is_err());
     }
 
     #[test]

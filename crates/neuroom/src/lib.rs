@@ -28,6 +28,7 @@ pub mod suite;
 pub mod synth;
 pub mod tour;
 pub mod train;
+pub mod training_figures;
 pub mod view;
 
 pub use inspect::{RoomReport, inspect_room};

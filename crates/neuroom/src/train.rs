@@ -24,6 +24,11 @@ pub struct TrainOptions {
     pub object_seconds: Option<f64>,
     /// Wall-clock budget of the background model, seconds.
     pub background_seconds: Option<f64>,
+    /// Rays per step of an object model (default: [`TrainConfig::default`]'s). The same samples in
+    /// smaller batches, over more steps, learn more (docs/experiment-log.md, 2026-12-04).
+    pub object_batch_rays: Option<usize>,
+    /// Rays per step of the background model.
+    pub background_batch_rays: Option<usize>,
     /// Worker threads (0 = all cores).
     pub threads: usize,
     /// How many models train at once, each on its share of the threads (0 = one per thread while
@@ -83,6 +88,12 @@ impl TrainOptions {
             self.background_steps,
             self.background_seconds,
         );
+        if let Some(rays) = self.object_batch_rays {
+            c.object.batch_rays = rays;
+        }
+        if let Some(rays) = self.background_batch_rays {
+            c.background.batch_rays = rays;
+        }
         if let Some(seed) = self.seed {
             c.seed = seed;
         }

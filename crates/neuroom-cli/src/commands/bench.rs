@@ -4,6 +4,8 @@ use std::path::PathBuf;
 
 use super::mlp_precision_arg::MlpPrecisionArg;
 use neuroom::bench::{self, FieldBench};
+use neuroom::figures::invocation;
+use neuroom::training_figures::{TrainingFigureRecord, TrainingFigures};
 
 /// Measure the performance figures the README reports.
 ///
@@ -214,6 +216,9 @@ struct TrainArgs {
     /// Arithmetic of the networks' products.
     #[arg(long, value_enum, default_value_t)]
     mlp_precision: MlpPrecisionArg,
+    /// Rays per step (default: the training default for that kind of model).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(16..=65_536))]
+    batch_rays: Option<u32>,
     /// A JSON object of training-configuration fields to set over the others (`TrainConfig`'s serde
     /// names; nested objects merge key by key), for experiments:
     /// `{"warmup_steps": 50, "object": {"batch_rays": 4096}}`.
@@ -222,6 +227,8 @@ struct TrainArgs {
     /// Print the report as JSON after the text.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    record: super::record_args::RecordArgs,
 }
 
 #[derive(clap::Args)]
@@ -294,31 +301,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string(&report)?);
             }
         }
-        Which::Train(a) => {
-            let options = neuroom::train::TrainOptions {
-                object_steps: a.steps,
-                background_steps: a.steps,
-                object_seconds: a.seconds,
-                background_seconds: a.seconds,
-                cpu_clock: a.cpu_clock,
-                mlp_precision: a.mlp_precision.into(),
-                ..Default::default()
-            };
-            let mut config = options.config();
-            if let Some(path) = &a.set {
-                config = neuroom::overrides::from_file(
-                    &config,
-                    path,
-                    neuroom::train::OPTIONAL_KEYS,
-                    "training",
-                )?;
-            }
-            let report = bench::train(&a.room, &a.model, &config)?;
-            println!("{}", bench::describe_train(&report));
-            if a.json {
-                println!("{}", serde_json::to_string(&report)?);
-            }
-        }
+        Which::Train(a) => train(&a)?,
         Which::Fit(a) => fit(a)?,
         Which::Locate(a) => run_locate(&a)?,
         Which::Masks(a) => super::bench_masks::run(&a)?,
@@ -334,6 +317,39 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// `neuroom bench train`: one model trained and scored, kept as a training-table row with `--record`.
+fn train(a: &TrainArgs) -> anyhow::Result<()> {
+    let batch_rays = a.batch_rays.map(|rays| rays as usize);
+    let options = neuroom::train::TrainOptions {
+        object_steps: a.steps,
+        background_steps: a.steps,
+        object_seconds: a.seconds,
+        background_seconds: a.seconds,
+        object_batch_rays: batch_rays,
+        background_batch_rays: batch_rays,
+        cpu_clock: a.cpu_clock,
+        mlp_precision: a.mlp_precision.into(),
+        ..Default::default()
+    };
+    let mut config = options.config();
+    if let Some(path) = &a.set {
+        config = neuroom::overrides::from_file(
+            &config,
+            path,
+            neuroom::train::OPTIONAL_KEYS,
+            "training",
+        )?;
+    }
+    let report = bench::train(&a.room, &a.model, &config)?;
+    println!("{}", bench::describe_train(&report));
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    }
+    let figures = TrainingFigures::from_report(&report, &config);
+    a.record
+        .write(TrainingFigureRecord::measured_now(invocation(), figures))
 }
 
 fn fit(a: FitArgs) -> anyhow::Result<()> {

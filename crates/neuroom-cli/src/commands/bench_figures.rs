@@ -1,24 +1,32 @@
-//! `neuroom bench table` and `neuroom bench baseline`: the README's results table made from the figure
-//! records under `bench/figures/`, and the fast cases whose records CI checks.
+//! `neuroom bench table` and `neuroom bench baseline`: the README's results and training tables made
+//! from the figure records under `bench/figures/` and `bench/training/`, and the fast cases whose
+//! records CI checks.
 
 use std::path::PathBuf;
 
 use neuroom::baseline::{BaselineCase, BaselineTolerance, compare_baseline, run_baseline};
-use neuroom::figures::{FigureRecord, invocation, read_records, results_table, update_readme};
+use neuroom::figures::{
+    FigureRecord, RESULTS_TABLE, invocation, read_records, results_table, update_readme,
+};
 use neuroom::train::TrainBar;
+use neuroom::training_figures::{TRAINING_TABLE, read_training_records, training_table};
 
 use super::record_args::RecordArgs;
 
 /// The options of `neuroom bench table`.
 #[derive(clap::Args)]
 pub struct TableArgs {
-    /// The folder of figure records.
+    /// The folder of figure records (`bench locate`, `bench baseline`, `demo`).
     #[arg(default_value = "bench/figures")]
     figures: PathBuf,
-    /// Put the table into this README, between its two figure markers, instead of printing it.
+    /// The folder of training figure records (`bench train`).
+    #[arg(long, default_value = "bench/training")]
+    training: PathBuf,
+    /// Put the tables into this README, each between its two markers, instead of printing them.
     #[arg(long)]
     readme: Option<PathBuf>,
-    /// With `--readme`: change nothing, fail when the README's table is not the one the records give.
+    /// With `--readme`: change nothing, fail when the README's tables are not the ones the records
+    /// give.
     #[arg(long, requires = "readme")]
     check: bool,
 }
@@ -41,27 +49,31 @@ pub struct BaselineArgs {
 
 /// `neuroom bench table`.
 pub fn table(args: &TableArgs) -> anyhow::Result<()> {
-    let table = results_table(&read_records(&args.figures)?);
+    let tables = [
+        (RESULTS_TABLE, results_table(&read_records(&args.figures)?)),
+        (
+            TRAINING_TABLE,
+            training_table(&read_training_records(&args.training)?),
+        ),
+    ];
     let Some(path) = &args.readme else {
-        print!("{table}");
+        for (_, table) in &tables {
+            println!("{table}");
+        }
         return Ok(());
     };
-    let changed = update_readme(path, &table, !args.check)?;
+    let changed = update_readme(path, &tables, !args.check)?;
+    let sources = format!("{} and {}", args.figures.display(), args.training.display());
     if args.check {
         anyhow::ensure!(
             !changed,
-            "{}: the results table is not the one {} gives; run `neuroom bench table --readme {}`",
+            "{}: the tables are not the ones {sources} give; run `neuroom bench table --readme {}`",
             path.display(),
-            args.figures.display(),
             path.display()
         );
-        println!("{}: the results table matches the records", path.display());
+        println!("{}: the tables match the records", path.display());
     } else {
-        println!(
-            "{}: results table written from {}",
-            path.display(),
-            args.figures.display()
-        );
+        println!("{}: tables written from {sources}", path.display());
     }
     Ok(())
 }

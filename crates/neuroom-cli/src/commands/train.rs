@@ -34,6 +34,12 @@ pub struct Args {
     /// Time budget of the background model, seconds, instead of steps.
     #[arg(long)]
     background_seconds: Option<f64>,
+    /// Rays per step of an object model (default 2 048).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(16..=65_536))]
+    object_batch_rays: Option<u32>,
+    /// Rays per step of the background model (default 2 048).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(16..=65_536))]
+    background_batch_rays: Option<u32>,
     /// Worker threads (0 = all cores). The models do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -78,6 +84,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         background_steps: args.background_steps,
         object_seconds: args.object_seconds,
         background_seconds: args.background_seconds,
+        object_batch_rays: args.object_batch_rays.map(|rays| rays as usize),
+        background_batch_rays: args.background_batch_rays.map(|rays| rays as usize),
         threads: args.threads,
         models_at_once: args.models_at_once,
         seed: args.seed,
