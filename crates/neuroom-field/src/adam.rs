@@ -52,8 +52,15 @@ impl Adam {
     }
 
     /// One step: `params -= lr_g · m̂ / (√v̂ + ε)` with bias-corrected moments, group `g` at rate `lr[g]`.
-    /// A group with rate 0 is left untouched (frozen), moments included.
-    pub fn step(&mut self, params: &mut Params<f32>, grads: &Params<f32>, lr: &[f32; NUM_GROUPS]) {
+    /// A group with rate 0 is left untouched (frozen), moments and gradients included. The step
+    /// consumes the gradients of the groups it moves: it leaves them zero, cleared in the same pass
+    /// that reads them (the table of a room's model is too large to pass over twice for free).
+    pub fn step(
+        &mut self,
+        params: &mut Params<f32>,
+        grads: &mut Params<f32>,
+        lr: &[f32; NUM_GROUPS],
+    ) {
         self.step += 1;
         let update = AdamUpdate::at(self.config, self.step);
         for (g, &rate) in lr.iter().enumerate() {
@@ -62,10 +69,13 @@ impl Adam {
             }
             params.groups[g]
                 .par_chunks_mut(1 << 14)
-                .zip(grads.groups[g].par_chunks(1 << 14))
+                .zip(grads.groups[g].par_chunks_mut(1 << 14))
                 .zip(self.m.groups[g].par_chunks_mut(1 << 14))
                 .zip(self.v.groups[g].par_chunks_mut(1 << 14))
-                .for_each(|(((p, gr), m), v)| update.apply(rate, p, gr, m, v));
+                .for_each(|(((p, gr), m), v)| {
+                    update.apply(rate, p, gr, m, v);
+                    gr.fill(0.0);
+                });
         }
     }
 }
@@ -166,5 +176,49 @@ impl Schedule {
             1.0
         };
         ramp * decay
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::Group;
+
+    /// A step moves every group at its rate by the update rule and leaves its gradients zero, and
+    /// leaves a frozen group as it was, gradients included.
+    #[test]
+    fn a_step_applies_the_update_rule_and_clears_the_gradients() {
+        let mut params = Params::<f32>::default();
+        params.groups[Group::Hash as usize] = (0..40_000).map(|i| (i % 7) as f32 * 0.1).collect();
+        params.groups[Group::Light as usize] = vec![0.5, -0.5];
+        let mut grads = Params::zeros_like(&params);
+        grads.groups[Group::Hash as usize] = (0..40_000).map(|i| (i % 5) as f32 - 2.0).collect();
+        grads.groups[Group::Light as usize] = vec![1.0, 2.0];
+        let mut lr = [0.0; NUM_GROUPS];
+        lr[Group::Hash as usize] = 0.01;
+
+        let mut expected = params.groups[Group::Hash as usize].clone();
+        let hash_grads = grads.groups[Group::Hash as usize].clone();
+        let (mut m, mut v) = (vec![0.0; 40_000], vec![0.0; 40_000]);
+        AdamUpdate::at(AdamConfig::default(), 1).apply(
+            0.01,
+            &mut expected,
+            &hash_grads,
+            &mut m,
+            &mut v,
+        );
+
+        let mut adam = Adam::new(AdamConfig::default(), &params);
+        adam.step(&mut params, &mut grads, &lr);
+        assert_eq!(params.groups[Group::Hash as usize], expected);
+        assert_eq!(adam.m.groups[Group::Hash as usize], m);
+        assert_eq!(params.groups[Group::Light as usize], vec![0.5, -0.5]);
+        assert!(
+            adam.m.groups[Group::Light as usize]
+                .iter()
+                .all(|&x| x == 0.0)
+        );
+        assert!(grads.groups[Group::Hash as usize].iter().all(|&g| g == 0.0));
+        assert_eq!(grads.groups[Group::Light as usize], vec![1.0, 2.0]);
     }
 }

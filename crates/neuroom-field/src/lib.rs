@@ -8,8 +8,8 @@
 //! 2. Per step: sample points along rays (object frame), `field.forward(&points, &dirs, &codes,
 //!    Outputs::Full, &mut tape)`, read `tape.copy_sdf` / `copy_rgb`, render and compute the loss with
 //!    `neuroom-render`, then `field.backward(&codes, &mut tape, &d_sdf, Some(&d_rgb), &mut grads, None)`,
-//!    `field.backward_inv_s(d_inv_s, &mut grads)`, `field.eikonal(...)`, `adam.step(&mut field.params,
-//!    &grads, &lrs)` and `grads.fill_zero()`.
+//!    `field.backward_inv_s(d_inv_s, &mut grads)`, `field.eikonal(...)` and `adam.step(&mut field.params,
+//!    &mut grads, &lrs)`, which leaves the gradients of the groups it moved zero for the next step.
 
 pub mod adam;
 pub mod batch;

@@ -33,7 +33,7 @@ fn adam_minimises_a_quadratic() {
             *g = 2.0 * (p - t);
         }
         grads.groups[Group::Light as usize][0] = 1.0;
-        adam.step(&mut params, &grads, &lr);
+        adam.step(&mut params, &mut grads, &lr);
     }
     for (p, t) in params.get(Group::SdfMlp).iter().zip(&target) {
         assert!((p - t).abs() < 1e-2, "{p} vs {t}");

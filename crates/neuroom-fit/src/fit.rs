@@ -698,7 +698,7 @@ impl<'a, F: FitField> Fitter<'a, F> {
             .models
             .iter_mut()
             .zip(&mut self.code_adams)
-            .zip(&self.model_grads)
+            .zip(&mut self.model_grads)
         {
             if let Some(params) = model.field.params_mut() {
                 adam.get_or_insert_with(|| Adam::new(AdamConfig::default(), params))

@@ -415,7 +415,9 @@ impl<'a> Trainer<'a> {
         {
             let factor = self.schedule().factor(self.state.step) * self.state.health.lr_scale;
             let lr: [f32; NUM_GROUPS] = self.config.learning_rates.map(|r| r * factor);
-            self.adam.step(&mut self.field.params, &self.grads, &lr);
+            self.adam.step(&mut self.field.params, &mut self.grads, &lr);
+            // The step cleared the gradients of the groups it moved; the frozen groups' are cleared here.
+            self.grads.fill_zero_where(|g| lr[g as usize] == 0.0);
             let refine = self.config.frame_refinement;
             let pose_lr = if self.poses_move() {
                 refine.pose_lr * factor
@@ -425,10 +427,12 @@ impl<'a> Trainer<'a> {
             if let Some(frames) = &mut self.frames {
                 frames.step(pose_lr, refine.gain_lr * factor);
             }
-        } else if let Some(frames) = &mut self.frames {
-            frames.clear_grads();
+        } else {
+            self.grads.fill_zero();
+            if let Some(frames) = &mut self.frames {
+                frames.clear_grads();
+            }
         }
-        self.grads.fill_zero();
         prof.adam += lap.next();
         prof.steps += 1;
         self.state.profile = prof;
