@@ -189,6 +189,14 @@ impl FrameRefinement {
 }
 
 impl TrainConfig {
+    /// The budget of a kind of model.
+    pub fn budget(&self, kind: crate::ModelKind) -> &ModelBudget {
+        match kind {
+            crate::ModelKind::Object => &self.object,
+            crate::ModelKind::Background => &self.background,
+        }
+    }
+
     /// The lanes of a room's training ([`TrainConfig::models_at_once`]): one when a time budget is set,
     /// so that each model has the whole machine for the seconds it was given.
     pub fn lanes(&self) -> usize {

@@ -206,7 +206,7 @@ impl<'a> Trainer<'a> {
         kind: ModelKind,
         bounds: Aabb,
     ) -> Self {
-        let budget = budget_of(config, kind).clone();
+        let budget = config.budget(kind).clone();
         let lights = light_codes(data, augmentation);
         let appearance = if config.appearance_per_frame {
             data.origins.len()
@@ -348,7 +348,7 @@ impl<'a> Trainer<'a> {
             data,
             augmentation,
             config: config.clone(),
-            budget: budget_of(config, kind).clone(),
+            budget: config.budget(kind).clone(),
             kind,
             field,
             adam,
@@ -1038,14 +1038,6 @@ impl Lap {
         let dt = (now - self.0).as_secs_f64();
         self.0 = now;
         dt
-    }
-}
-
-/// The budget of a model kind.
-fn budget_of(config: &TrainConfig, kind: ModelKind) -> &ModelBudget {
-    match kind {
-        ModelKind::Object => &config.object,
-        ModelKind::Background => &config.background,
     }
 }
 

@@ -24,8 +24,8 @@ pub struct TrainOptions {
     pub object_seconds: Option<f64>,
     /// Wall-clock budget of the background model, seconds.
     pub background_seconds: Option<f64>,
-    /// Rays per step of an object model (default: [`TrainConfig::default`]'s). The same samples in
-    /// smaller batches, over more steps, learn more (docs/experiment-log.md, 2026-12-04).
+    /// Rays per step of an object model (default: [`TrainConfig::default`]'s). Whether smaller
+    /// batches over more steps learn more depends on the model (docs/experiment-log.md, 2026-12-04).
     pub object_batch_rays: Option<usize>,
     /// Rays per step of the background model.
     pub background_batch_rays: Option<usize>,

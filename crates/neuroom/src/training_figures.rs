@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
+use neuroom_train::TrainConfig;
 use neuroom_train::bench::ModelBenchReport;
-use neuroom_train::{ModelKind, TrainConfig};
 use serde::{Deserialize, Serialize};
 
 use crate::figures::{Record, TableMarkers, check_format, read_json, record_paths, write_json};
@@ -46,10 +46,7 @@ pub struct TrainingFigures {
 impl TrainingFigures {
     /// The figures of `neuroom bench train`'s report of a model trained with `config`.
     pub fn from_report(report: &ModelBenchReport, config: &TrainConfig) -> Self {
-        let batch_rays = match report.kind {
-            ModelKind::Background => config.background.batch_rays,
-            ModelKind::Object => config.object.batch_rays,
-        };
+        let batch_rays = config.budget(report.kind).batch_rays;
         Self {
             room: report.room.clone(),
             model: report.model.clone(),
