@@ -22,20 +22,27 @@ const BLOCK: usize = 32;
 /// threads while the others wait.
 const TASKS_PER_THREAD: usize = 2;
 
-/// Chunks per task of a forward pass over `count` chunks on `threads` threads.
+/// Chunks per task of a forward pass over `count` chunks on `threads` threads: tasks of at most
+/// [`BLOCK`] chunks, at least [`TASKS_PER_THREAD`] per thread, and as many as a multiple of the thread
+/// count, so that whole rounds of equal tasks keep every thread busy to the end (five tasks of 32 on
+/// two threads leave one thread a third of the pass alone).
 fn block_size(count: usize, threads: usize) -> usize {
-    count
-        .div_ceil(TASKS_PER_THREAD * threads.max(1))
-        .clamp(1, BLOCK)
+    let threads = threads.max(1);
+    let tasks = count
+        .div_ceil(BLOCK)
+        .max(TASKS_PER_THREAD * threads)
+        .next_multiple_of(threads);
+    count.div_ceil(tasks).clamp(1, BLOCK)
 }
 
 /// Groups of chunks whose network gradients [`NeusField::backward`] sums separately, then adds in group
 /// order. The cut depends on the batch alone, never on the thread count, so a model trains to the same
 /// bits on one thread or sixteen, and the models of a room can train side by side on any split of the
-/// cores. Two groups are the cut two threads always made, so models and figures measured on two cores
-/// before the cut was fixed are the ones every thread count now trains; a machine with more cores than
-/// that keeps them busy with models side by side rather than with more groups.
-const GRADIENT_GROUPS: usize = 2;
+/// cores. Each group is one task summing its chunks in order, so the groups bound how many threads the
+/// backward pass keeps busy: sixteen keep a 16-core machine's threads busy with one model and divide
+/// evenly among 2, 4 or 8 threads, while their partial sums (the networks and codes, tens of
+/// kilobytes each) stay small against a step's work.
+const GRADIENT_GROUPS: usize = 16;
 
 /// What a batched forward pass saves for its backward pass.
 #[derive(Clone, Debug, Default)]
@@ -213,46 +220,34 @@ impl<T: Real> NeusField<T> {
         grads: &mut Params<T>,
         d_points: Option<&mut [[T; 3]]>,
     ) {
-        let per = tape.used.div_ceil(GRADIENT_GROUPS).max(1);
-        let groups = tape.used.div_ceil(per);
+        let cuts = group_cuts(tape.used, GRADIENT_GROUPS);
+        let groups = cuts.len() - 1;
         while tape.partials.len() < groups {
             tape.partials
                 .push(Params::zeros_like_without_hash(&self.params));
         }
-        let mut d_points_groups: Vec<Option<&mut [[T; 3]]>> = match d_points {
-            Some(d) => d.chunks_mut(per * CHUNK).map(Some).collect(),
-            None => (0..groups).map(|_| None).collect(),
-        };
-        let chunks = &mut tape.chunks[..tape.used];
         let pack = &tape.pack;
-        chunks
-            .par_chunks_mut(per)
-            .zip(tape.partials[..groups].par_iter_mut())
-            .zip(d_points_groups.par_iter_mut())
-            .enumerate()
-            .for_each(|(gi, ((wss, partial), dp))| {
-                partial.fill_zero();
-                for (k, ws) in wss.iter_mut().enumerate() {
-                    let s = (gi * per + k) * CHUNK;
-                    let e = s + ws.len();
-                    let dr = d_rgb.map(|d| &d[s * 3..e * 3]);
-                    let dpk = dp
-                        .as_deref_mut()
-                        .map(|d| &mut d[k * CHUNK..k * CHUNK + (e - s)]);
-                    self.backward_chunk(
-                        pack,
-                        &codes.slice(s, e),
-                        ws,
-                        &d_sdf[s..e],
-                        dr,
-                        partial,
-                        dpk,
-                    );
-                }
-            });
-        for partial in &tape.partials[..groups] {
-            grads.add_assign(partial);
-        }
+        let chunks = &mut tape.chunks[..tape.used];
+        let tasks = group_tasks(&cuts, chunks, &mut tape.partials[..groups], d_points);
+        tasks.into_par_iter().for_each(|task| {
+            let GroupTask {
+                first,
+                workspaces,
+                partial,
+                mut d_points,
+            } = task;
+            partial.fill_zero();
+            for (k, ws) in workspaces.iter_mut().enumerate() {
+                let s = (first + k) * CHUNK;
+                let e = s + ws.len();
+                let dr = d_rgb.map(|d| &d[s * 3..e * 3]);
+                let dpk = d_points
+                    .as_deref_mut()
+                    .map(|d| &mut d[k * CHUNK..k * CHUNK + (e - s)]);
+                self.backward_chunk(pack, &codes.slice(s, e), ws, &d_sdf[s..e], dr, partial, dpk);
+            }
+        });
+        grads.add_in_order(&tape.partials[..groups]);
         self.scatter_hash_grads(&tape.chunks[..tape.used], grads);
     }
 
@@ -324,19 +319,80 @@ fn eikonal_loss<T: Real>(f: &[T], h: T, weight: T) -> (T, Vec<T>) {
     (loss, d)
 }
 
+/// The chunks of one gradient group of [`NeusField::backward`], with its partial sums and its points'
+/// slice of `∂loss/∂x`.
+struct GroupTask<'a, T> {
+    /// Index of the group's first chunk in the batch.
+    first: usize,
+    workspaces: &'a mut [Workspace<T>],
+    partial: &'a mut Params<T>,
+    d_points: Option<&'a mut [[T; 3]]>,
+}
+
+/// The gradient groups of a backward pass cut at `cuts`: each with its chunks, its partial sums and
+/// its part of `d_points`.
+fn group_tasks<'a, T: Real>(
+    cuts: &[usize],
+    mut chunks: &'a mut [Workspace<T>],
+    mut partials: &'a mut [Params<T>],
+    mut d_points: Option<&'a mut [[T; 3]]>,
+) -> Vec<GroupTask<'a, T>> {
+    let mut tasks = Vec::with_capacity(cuts.len() - 1);
+    for (&first, &end) in cuts.iter().zip(&cuts[1..]) {
+        let (workspaces, rest) = std::mem::take(&mut chunks).split_at_mut(end - first);
+        let (partial, others) = std::mem::take(&mut partials).split_at_mut(1);
+        let points: usize = workspaces.iter().map(Workspace::len).sum();
+        let group_points = d_points.take().map(|d| {
+            let (mine, rest) = d.split_at_mut(points);
+            d_points = Some(rest);
+            mine
+        });
+        tasks.push(GroupTask {
+            first,
+            workspaces,
+            partial: &mut partial[0],
+            d_points: group_points,
+        });
+        (chunks, partials) = (rest, others);
+    }
+    tasks
+}
+
+/// Chunk indices where the gradient groups of a batch of `chunks` chunks start, and the end: at most
+/// `groups` groups, as even as they divide (sizes differ by one at most), none empty.
+fn group_cuts(chunks: usize, groups: usize) -> Vec<usize> {
+    let groups = groups.min(chunks).max(1);
+    (0..=groups).map(|g| g * chunks / groups).collect()
+}
+
 #[cfg(test)]
 mod tests {
-    use super::block_size;
+    use super::{block_size, group_cuts};
 
     #[test]
     fn small_batches_are_cut_into_tasks_for_every_thread() {
         // A training step's SDF-only batch (32 chunks) and eikonal batch (24) on 2 threads.
         assert_eq!(block_size(32, 2), 8);
         assert_eq!(block_size(24, 2), 6);
+        // An object's step (145 chunks): six tasks of 25 on two threads, not five of 32.
+        assert_eq!(block_size(145, 2), 25);
         // Large batches keep whole blocks; tiny ones one chunk per task.
         assert_eq!(block_size(1_000, 2), super::BLOCK);
         assert_eq!(block_size(3, 16), 1);
         assert_eq!(block_size(0, 4), 1);
+    }
+
+    #[test]
+    fn gradient_groups_are_even_and_never_empty() {
+        assert_eq!(group_cuts(145, 16).len(), 17);
+        let sizes: Vec<usize> = group_cuts(145, 16)
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .collect();
+        assert!(sizes.iter().all(|&s| s == 9 || s == 10), "{sizes:?}");
+        assert_eq!(sizes.iter().sum::<usize>(), 145);
+        assert_eq!(group_cuts(3, 16), vec![0, 1, 2, 3]);
+        assert_eq!(group_cuts(0, 16), vec![0, 0]);
     }
 }
 

@@ -117,6 +117,29 @@ impl<T: Real> Params<T> {
         }
     }
 
+    /// Adds every one of `parts` group-wise, each value summing the parts in their order (the bits a
+    /// loop of [`Params::add_assign`] gives), in parallel over ranges of values; groups empty in the
+    /// parts are skipped.
+    pub fn add_in_order(&mut self, parts: &[Params<T>]) {
+        const RANGE: usize = 4096;
+        for (g, values) in self.groups.iter_mut().enumerate() {
+            if parts.iter().all(|p| p.groups[g].is_empty()) {
+                continue;
+            }
+            values
+                .par_chunks_mut(RANGE)
+                .enumerate()
+                .for_each(|(r, range)| {
+                    for part in parts.iter().filter(|p| !p.groups[g].is_empty()) {
+                        let src = &part.groups[g][r * RANGE..r * RANGE + range.len()];
+                        for (x, y) in range.iter_mut().zip(src) {
+                            *x += *y;
+                        }
+                    }
+                });
+        }
+    }
+
     /// Total number of values.
     pub fn len(&self) -> usize {
         self.groups.iter().map(Vec::len).sum()
@@ -171,5 +194,28 @@ mod tests {
         assert!(!params.all_finite());
         params.groups[Group::Light as usize][2] = 2.0;
         assert!(params.all_finite());
+    }
+
+    #[test]
+    fn adding_parts_in_order_gives_the_bits_of_a_loop_of_adds() {
+        let shape = |seed: u64| Params::<f32> {
+            groups: std::array::from_fn(|g| {
+                (0..(g * 3_000 + 7))
+                    .map(|i| {
+                        ((i as u64 * 2_654_435_761 + seed * 97 + g as u64) % 1_000) as f32 * 1e-3
+                            - 0.37
+                    })
+                    .collect()
+            }),
+        };
+        let mut parts: Vec<Params<f32>> = (1..6).map(shape).collect();
+        parts[2].groups[Group::Hash as usize].clear();
+        let mut looped = shape(0);
+        let mut ordered = looped.clone();
+        for part in &parts {
+            looped.add_assign(part);
+        }
+        ordered.add_in_order(&parts);
+        assert_eq!(looped, ordered);
     }
 }

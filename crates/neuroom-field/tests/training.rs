@@ -212,3 +212,68 @@ fn neus_field_learns_a_box_sdf() {
         / points.len() as f32;
     assert!(mae < 5e-3, "mean |SDF error| near the surface {mae} m");
 }
+
+/// A full forward + backward pass (colour, codes per point, `∂loss/∂x`) gives the same bits on one
+/// thread, three and eight: the gradient groups are cut by the batch, not by the threads.
+#[test]
+fn gradients_do_not_depend_on_the_thread_count() {
+    let mut config = NeusConfig::object([0.4, 0.3, 0.5]);
+    config.hash.log2_table = 12;
+    config.appearance_codes = 4;
+    config.light_codes = 2;
+    let field = NeusField::<f32>::new(config.clone());
+    let mut rng = SplitMix::new(11);
+    let n = 37 * neuroom_field::CHUNK + 101;
+    let points = random_batch(&config, n, &mut rng);
+    let dirs: Vec<[f32; 3]> = (0..n)
+        .map(|_| {
+            let v = Vec3::from_array(std::array::from_fn(|_| rng.next_f64() as f32 - 0.5));
+            v.normalize_or(Vec3::X).to_array()
+        })
+        .collect();
+    let appearance: Vec<u32> = (0..n).map(|i| (i / 700 % 4) as u32).collect();
+    let light: Vec<u32> = (0..n).map(|i| (i / 1300 % 2) as u32).collect();
+    let codes = CodeSet {
+        appearance: neuroom_field::Codes::PerPoint(&appearance),
+        light: neuroom_field::Codes::PerPoint(&light),
+        ..CodeSet::default()
+    };
+    let d_sdf: Vec<f32> = (0..n).map(|_| rng.next_f64() as f32 - 0.5).collect();
+    let d_rgb: Vec<f32> = (0..3 * n).map(|_| rng.next_f64() as f32 - 0.5).collect();
+    let pass = || {
+        let mut tape = Tape::default();
+        field.forward(&points, &dirs, &codes, Outputs::Full, &mut tape);
+        let mut grads = Params::zeros_like(&field.params);
+        let mut d_points = vec![[0.0f32; 3]; n];
+        field.backward(
+            &codes,
+            &mut tape,
+            &d_sdf,
+            Some(&d_rgb),
+            &mut grads,
+            Some(&mut d_points),
+        );
+        (grads, d_points)
+    };
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(pass)
+    };
+    let one = on(1);
+    assert!(one.0.get(Group::ColorMlp).iter().any(|g| *g != 0.0));
+    assert!(one.0.get(Group::Appearance).iter().any(|g| *g != 0.0));
+    for threads in [3, 8] {
+        let other = on(threads);
+        assert!(
+            one.0 == other.0,
+            "parameter gradients differ on {threads} threads"
+        );
+        assert!(
+            one.1 == other.1,
+            "point gradients differ on {threads} threads"
+        );
+    }
+}

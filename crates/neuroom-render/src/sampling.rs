@@ -38,17 +38,25 @@ pub fn depth_guided(
     rng: &mut impl FnMut() -> f32,
     out: &mut Vec<f32>,
 ) {
-    let (a, b) = (
-        (depth - half_width).max(near),
-        (depth + half_width).min(far),
-    );
     let mut shell = Vec::with_capacity(n_shell);
-    if b > a {
+    if let Some((a, b)) = depth_guided_shell(near, far, depth, half_width) {
         stratified(a, b, n_shell, rng, &mut shell);
     }
     let mut coarse = Vec::with_capacity(n_uniform);
     stratified(near, far, n_uniform, rng, &mut coarse);
     merge_sorted(&shell, &coarse, out);
+}
+
+/// The shell `[depth − half_width, depth + half_width]` of [`depth_guided`] clipped to `[near, far]`,
+/// or `None` when nothing of it is left: then [`depth_guided`] writes (and draws) its `n_uniform`
+/// samples only, else `n_shell` more. So a caller knows how many numbers a ray draws before it draws
+/// them, and can hand each ray its own place in one stream and sample the rays in parallel.
+pub fn depth_guided_shell(near: f32, far: f32, depth: f32, half_width: f32) -> Option<(f32, f32)> {
+    let (a, b) = (
+        (depth - half_width).max(near),
+        (depth + half_width).min(far),
+    );
+    (b > a).then_some((a, b))
 }
 
 /// Hierarchical resampling: `n` new depths drawn from the piecewise-constant density whose interval
@@ -121,4 +129,29 @@ pub fn merge_by_t(lists: &[&[f32]], out: &mut Vec<(f32, usize, usize)>) {
         out.extend(list.iter().enumerate().map(|(i, t)| (*t, f, i)));
     }
     out.sort_by(|a, b| a.0.total_cmp(&b.0));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `depth_guided` writes and draws `n_shell` more samples exactly when `depth_guided_shell` finds
+    /// a shell, for shells inside, across and outside `[near, far]`.
+    #[test]
+    fn the_count_of_depth_guided_samples_is_known_before_drawing() {
+        for (depth, half) in [(1.0, 0.1), (0.25, 0.1), (3.5, 0.2), (-1.0, 0.1), (1.0, 0.0)] {
+            let mut draws = 0;
+            let mut rng = || {
+                draws += 1;
+                0.5
+            };
+            let mut out = Vec::new();
+            depth_guided(0.2, 3.0, depth, half, 8, 16, &mut rng, &mut out);
+            let count = 16 + depth_guided_shell(0.2, 3.0, depth, half).map_or(0, |_| 8);
+            assert_eq!(out.len(), count, "depth {depth}");
+            assert_eq!(draws, count, "depth {depth}");
+        }
+        assert_eq!(depth_guided_shell(0.2, 3.0, -1.0, 0.1), None);
+        assert!(depth_guided_shell(0.2, 3.0, 1.0, 0.1).is_some());
+    }
 }

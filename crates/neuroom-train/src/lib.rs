@@ -14,6 +14,7 @@ pub mod augment;
 pub mod bench;
 pub mod config;
 pub mod dataset;
+mod draws;
 pub mod eval;
 pub mod frame_corrections;
 pub mod lanes;

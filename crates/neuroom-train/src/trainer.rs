@@ -14,8 +14,9 @@
 use crate::augment::Augmentation;
 use crate::config::{BudgetClock, ModelBudget, ObjectStart, RefineWhen, START_INSET, TrainConfig};
 use crate::dataset::{Aabb, Dataset};
+use crate::draws::{RayPlan, SampleCounts, SampleRows, write_samples};
 use crate::frame_corrections::{Corrected, FrameCorrections};
-use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sample_zone, sdf_loss};
+use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sdf_loss};
 use crate::progress::Progress;
 use crate::ray_choice::ErrorMap;
 use crate::rng::Pcg32;
@@ -29,8 +30,8 @@ use neuroom_field::{
     Adam, AdamConfig, CodeSet, Codes, NUM_GROUPS, NeusConfig, NeusField, Outputs, Params, Schedule,
     Tape,
 };
-use neuroom_render::sampling::{depth_guided, stratified};
 use neuroom_render::volume::{RayTape, render_ray, render_ray_backward};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::Instant;
@@ -555,25 +556,69 @@ impl<'a> Trainer<'a> {
 
     /// Draws the rays of a step and their samples, points, codes and targets.
     fn draw_batch(&mut self) {
+        let plans = self.plan_rays();
+        let (counts, band) = (self.sample_counts(), self.budget.sdf_band * self.diag);
         let b = &mut self.batch;
-        for v in [&mut b.t, &mut b.d_sdf, &mut b.d_rgb] {
-            v.clear();
-        }
         b.offsets.clear();
         b.ray_frame.clear();
         b.ray_pool.clear();
         b.ray_weight.clear();
-        b.points.clear();
-        b.dirs.clear();
-        b.appearance.clear();
-        b.light.clear();
-        b.targets.clear();
-        b.zones.clear();
         b.offsets.push(0);
+        // Surface rays first, then empty ones (see `Batch::full`).
+        let (mut n, mut full) = (0, 0);
+        for plan in &plans {
+            n += plan.count;
+            if !plan.empty {
+                full = n;
+            }
+            b.offsets.push(n);
+            b.ray_frame.push(plan.frame);
+            b.ray_pool.push(plan.pool);
+            b.ray_weight.push(plan.weight);
+        }
+        b.full = full;
+        b.t.resize(n, 0.0);
+        b.points.resize(n, [0.0; 3]);
+        b.dirs.resize(n, [0.0; 3]);
+        b.appearance.resize(n, 0);
+        b.light.resize(n, 0);
+        b.zones.resize(n, SampleZone::Empty);
+        let rows = SampleRows {
+            t: &mut b.t,
+            points: &mut b.points,
+            dirs: &mut b.dirs,
+            appearance: &mut b.appearance,
+            light: &mut b.light,
+            zones: &mut b.zones,
+        };
+        write_samples(&plans, &counts, band, rows);
+        let (rays, augmentation) = (&self.data.rays, self.augmentation);
+        plans
+            .par_iter()
+            .map(|plan| plan.target(rays, augmentation))
+            .collect_into_vec(&mut b.targets);
+        for v in [&mut b.d_sdf, &mut b.d_rgb] {
+            v.clear();
+        }
+        b.d_sdf.resize(n, 0.0);
+        b.d_rgb.resize(3 * n, 0.0);
+    }
+
+    /// Samples per ray of this model's budget.
+    fn sample_counts(&self) -> SampleCounts {
+        SampleCounts {
+            shell: self.budget.shell_samples,
+            uniform: self.budget.uniform_samples,
+        }
+    }
+
+    /// The step's rays in order, drawn from the step's generator: which rays, where each one's sample
+    /// draws start (their count is known before they are made, so the generator is moved past them),
+    /// and which are relit. Rays that miss the model's bounds are dropped.
+    fn plan_rays(&mut self) -> Vec<RayPlan> {
         let inv_s = self.field.inv_s();
         let (shell_min, shell_max) = (self.budget.shell_min * self.diag, 0.1 * self.diag);
-        let band = self.budget.sdf_band * self.diag;
-        let mut samples = Vec::new();
+        let counts = self.sample_counts();
         let rays = &self.data.rays;
         let rng = &mut self.state.rng;
         let batch = self.budget.batch_rays;
@@ -584,14 +629,10 @@ impl<'a> Trainer<'a> {
                 .filter(|_| rng.next_f32() < self.config.empty_fraction)
                 .count(),
         };
-        b.full = 0;
-        // Surface rays first, then empty ones (see `Batch::full`).
+        let mut plans = Vec::with_capacity(batch);
         for r in 0..batch {
-            let pick_empty = r >= batch - n_empty;
-            if r == batch - n_empty {
-                b.full = b.t.len();
-            }
-            let drawn = if pick_empty {
+            let empty = r >= batch - n_empty;
+            let drawn = if empty {
                 let k = rng.below(self.empty_rays.len() as u32) as usize;
                 PoolDraw::new(self.empty_rays[k], u32::MAX, 1.0)
             } else if let Some(map) = &self.errors {
@@ -603,14 +644,14 @@ impl<'a> Trainer<'a> {
             };
             let i = drawn.ray;
             let frame = rays.frame[i] as usize;
-            let (o, d) = match self.frames.as_ref().filter(|f| f.corrected.pose) {
+            let (origin, dir) = match self.frames.as_ref().filter(|f| f.corrected.pose) {
                 Some(f) => (
                     f.origin(frame, self.data.origin(i)),
                     f.direction(frame, Vec3::from(rays.dir[i])),
                 ),
                 None => (self.data.origin(i), Vec3::from(rays.dir[i])),
             };
-            let Some((near, far)) = self.bounds.intersect(o, d) else {
+            let Some((near, far)) = self.bounds.intersect(origin, dir) else {
                 continue;
             };
             let near = if self.kind == ModelKind::Background {
@@ -628,40 +669,25 @@ impl<'a> Trainer<'a> {
             let cos = if normal == Vec3::ZERO {
                 1.0
             } else {
-                normal.dot(d).abs().max(0.1)
+                normal.dot(dir).abs().max(0.1)
             };
             let shell = (5.0 / (inv_s * cos))
                 .clamp(shell_min, shell_max)
                 .max(spread);
-            let mut u = || rng.next_f32();
-            match distance {
-                Some(dist) if !pick_empty => depth_guided(
-                    near,
-                    far,
-                    dist,
-                    shell,
-                    self.budget.shell_samples,
-                    self.budget.uniform_samples,
-                    &mut u,
-                    &mut samples,
-                ),
-                _ => stratified(
-                    near,
-                    far,
-                    self.budget.shell_samples + self.budget.uniform_samples,
-                    &mut u,
-                    &mut samples,
-                ),
+            let count = counts.of(near, far, distance.filter(|_| !empty), shell);
+            let sample_rng = *rng;
+            for _ in 0..count {
+                rng.next_u32();
             }
             let mut light = self.data.frame_light[frame] as u32;
-            let mut rgb = rays.color(i);
-            if !pick_empty
+            let mut relight = None;
+            if !empty
                 && !self.augmentation.is_empty()
                 && rng.next_f32() < self.config.augment_fraction
                 && normal != Vec3::ZERO
             {
                 let k = rng.below(self.augmentation.len() as u32) as usize;
-                rgb = self.augmentation.relight_srgb(k, rgb, normal);
+                relight = Some(k);
                 light = (self.lights.capture + k) as u32;
             }
             let appearance = if self.config.appearance_per_frame {
@@ -669,31 +695,29 @@ impl<'a> Trainer<'a> {
             } else {
                 0
             };
-            for &t in &samples {
-                b.t.push(t);
-                b.points.push((o + t * d).to_array());
-                b.dirs.push(d.to_array());
-                b.appearance.push(appearance);
-                b.light.push(light);
-                b.zones
-                    .push(sample_zone(t, distance, pick_empty, cos, band.max(spread)));
-            }
-            b.offsets.push(b.t.len());
-            b.ray_frame.push(frame as u32);
-            b.ray_pool.push(drawn.pool);
-            b.ray_weight.push(drawn.weight);
-            b.targets.push(RayTarget {
-                rgb: (!pick_empty).then_some(rgb),
-                distance: distance.filter(|_| !pick_empty),
-                opacity: if pick_empty { 0.0 } else { 1.0 },
+            plans.push(RayPlan {
+                ray: i,
+                frame: frame as u32,
+                origin,
+                dir,
+                near,
+                far,
+                distance,
+                shell,
+                spread,
+                cos,
+                normal,
+                empty,
+                sample_rng,
+                count,
+                relight,
+                light,
+                appearance,
+                pool: drawn.pool,
+                weight: drawn.weight,
             });
         }
-        let n = b.t.len();
-        if n_empty == 0 {
-            b.full = n;
-        }
-        b.d_sdf.resize(n, 0.0);
-        b.d_rgb.resize(3 * n, 0.0);
+        plans
     }
 
     /// Renders every ray of the batch, scores it, and writes the sample gradients; returns the loss parts
@@ -868,7 +892,6 @@ fn score_rays(
     scales: &RayScales,
     gains: Option<&[[f32; 3]]>,
 ) -> Vec<RayScore> {
-    use rayon::prelude::*;
     let Batch {
         offsets,
         t,
