@@ -106,20 +106,9 @@ impl<T: Real> Params<T> {
         }
     }
 
-    /// Adds `other` group-wise; groups empty in `other` are skipped.
-    pub fn add_assign(&mut self, other: &Params<T>) {
-        for (a, b) in self.groups.iter_mut().zip(&other.groups) {
-            if !b.is_empty() {
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x += *y;
-                }
-            }
-        }
-    }
-
-    /// Adds every one of `parts` group-wise, each value summing the parts in their order (the bits a
-    /// loop of [`Params::add_assign`] gives), in parallel over ranges of values; groups empty in the
-    /// parts are skipped.
+    /// Adds every one of `parts` group-wise, each value summing the parts in their order (the bits of
+    /// adding one part after the other), in parallel over ranges of values; groups empty in a part are
+    /// skipped for it.
     pub fn add_in_order(&mut self, parts: &[Params<T>]) {
         const RANGE: usize = 4096;
         for (g, values) in self.groups.iter_mut().enumerate() {
@@ -213,7 +202,13 @@ mod tests {
         let mut looped = shape(0);
         let mut ordered = looped.clone();
         for part in &parts {
-            looped.add_assign(part);
+            for (a, b) in looped.groups.iter_mut().zip(&part.groups) {
+                if !b.is_empty() {
+                    for (x, y) in a.iter_mut().zip(b) {
+                        *x += *y;
+                    }
+                }
+            }
         }
         ordered.add_in_order(&parts);
         assert_eq!(looped, ordered);
