@@ -23,6 +23,7 @@ pub mod losses;
 pub mod normals;
 pub mod progress;
 pub mod ray_choice;
+mod reuse;
 pub mod rng;
 pub mod room;
 pub mod symmetry;

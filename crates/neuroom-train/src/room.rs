@@ -6,7 +6,8 @@
 //! <models>/<room>/<model>/checkpoint/               resumable state while that model trains
 //! ```
 //! A model is finished when its `config.json` exists (it is written last, atomically). `train_room` skips
-//! finished models, resumes the one with a checkpoint, and rewrites the manifest after every model. Objects
+//! finished models, resumes the one with a checkpoint, and rewrites the manifest after every model; a
+//! finished model or checkpoint made with another budget (table, resolution, steps) is refused, not reused. Objects
 //! that name the same capture are instances of one model, trained once. Each model is an independent
 //! job: `train_room` told to train only some models (`only`) lists every model finished so far, whichever
 //! process finished it, so several processes can train one room's models side by side; the manifest is
@@ -20,6 +21,7 @@ use crate::frame_corrections::{CorrectionSummary, FrameCorrections};
 use crate::lanes::{lane_threads, run_in_lanes};
 use crate::losses::LossParts;
 use crate::progress::Progress;
+use crate::reuse::check_saved_budget;
 use crate::trainer::{LightCodes, ModelKind, Trainer, field_config};
 use neuroom_core::FormatError;
 use neuroom_core::formats::{Room, atomic_write, read_capture, read_room};
@@ -283,8 +285,12 @@ pub fn train_room(
     let dir = models_out.join(&room.name);
     let augmentation = Augmentation::load(&config.env_maps)?;
     let mut todo = Vec::new();
-    for spec in &specs {
-        if (only.is_empty() || only.contains(&spec.name)) && read_entry(&dir, spec)?.is_none() {
+    for spec in specs
+        .iter()
+        .filter(|s| only.is_empty() || only.contains(&s.name))
+    {
+        check_saved_budget(&dir.join(&spec.path), config.budget(spec.kind))?;
+        if read_entry(&dir, spec)?.is_none() {
             todo.push(spec);
         }
     }

@@ -442,4 +442,16 @@ fn a_room_trains_into_a_model_folder_that_loads_and_resumes() {
     let again = train_room(&room, &out, &config, &[], &Quiet).unwrap();
     assert!(again.trained.is_empty());
     assert_eq!(again.manifest.models.len(), 2);
+    // Models made with another budget are refused, not reused.
+    let mut other = config.clone();
+    other.object.log2_table -= 1;
+    let refused = train_room(&room, &out, &other, &[], &Quiet)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        refused.contains("ball")
+            && refused.contains("config.json")
+            && refused.contains("log2_table"),
+        "{refused}"
+    );
 }
