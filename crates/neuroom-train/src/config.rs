@@ -207,7 +207,7 @@ impl TrainConfig {
 
 impl Default for TrainConfig {
     /// Budgets in steps, so the same configuration gives the same models on any machine and load:
-    /// objects [`OBJECT_STEPS`], 2 048 rays × (12 shell + 4 uniform) samples, T = 2^17, finest 512; the
+    /// objects [`OBJECT_STEPS`], 2 048 rays × (12 shell + 4 uniform) samples, T = 2^15, finest 512; the
     /// room [`BACKGROUND_STEPS`], 2 048 rays, T = 2^18, finest 1 024. Adam at 1e-2 (tables, codes),
     /// 5e-3 (networks), 1e-2 (variance), 20 warm-up steps, then linear decay to 3 %; 4 hash levels at first and one more every 40 steps; every 10th frame held out;
     /// the vendored HDR maps for augmentation, 30 % of surface rays re-lit.
@@ -227,7 +227,7 @@ impl Default for TrainConfig {
                 batch_rays: 2048,
                 shell_samples: 12,
                 uniform_samples: 4,
-                log2_table: 17,
+                log2_table: 15,
                 finest_resolution: 512,
                 sdf_band: 0.02,
                 shell_min: 0.01,
