@@ -37,7 +37,8 @@ pub struct BaselineArgs {
     /// The case: `tiny` or `studio`.
     #[arg(value_parser = clap::builder::PossibleValuesParser::new(neuroom::baseline::BASELINE_CASES))]
     case: String,
-    /// Working folder for the room and its models (kept, so a second run only locates).
+    /// Working folder for the room and its models (kept, so a second run only locates; models it
+    /// holds from another budget are refused: remove the folder after changing the budgets).
     #[arg(long, default_value = "baseline-work")]
     work: PathBuf,
     /// Compare the figures with this committed record and fail when one moved beyond its tolerance.
