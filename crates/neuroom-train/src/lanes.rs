@@ -3,8 +3,9 @@
 //! One model does not keep many cores busy all the step (the choice of rays is serial, its batches are
 //! small, Adam and the hash-table gradients are bound by memory), so a room's models train in *lanes*:
 //! each lane is a rayon pool with its share of the threads and takes the next model from the queue as
-//! soon as its last one is finished, the room's model first, as it is the longest. A model's gradients do not depend on how many threads
-//! compute them (`neuroom_field::batch`), so the models are the same bits whatever the lanes are.
+//! soon as its last one is finished, the room's model first, as it is the longest. A model's gradients
+//! do not depend on how many threads compute them (`neuroom_field::batch`), so the models are the same
+//! bits whatever the lanes are.
 
 use rayon::ThreadPoolBuilder;
 use std::sync::Mutex;

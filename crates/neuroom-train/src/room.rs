@@ -7,11 +7,11 @@
 //! ```
 //! A model is finished when its `config.json` exists (it is written last, atomically). `train_room` skips
 //! finished models, resumes the one with a checkpoint, and rewrites the manifest after every model; a
-//! finished model or checkpoint made with another budget (table, resolution, steps) is refused, not reused. Objects
-//! that name the same capture are instances of one model, trained once. Each model is an independent
-//! job: `train_room` told to train only some models (`only`) lists every model finished so far, whichever
-//! process finished it, so several processes can train one room's models side by side; the manifest is
-//! complete once every model is there.
+//! finished model or checkpoint made with another budget (table, resolution, steps) is refused, not
+//! reused. Objects that name the same capture are instances of one model, trained once. Each model is
+//! an independent job: `train_room` told to train only some models (`only`) lists every model finished
+//! so far, whichever process finished it, so several processes can train one room's models side by
+//! side; the manifest is complete once every model is there.
 
 use crate::augment::Augmentation;
 use crate::config::TrainConfig;
