@@ -224,10 +224,13 @@ pub struct CameraEstimate {
     /// Why the camera may be wrong, when its confidence is below [`CameraEvidence::lost_below`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warning: Option<String>,
-    /// The chosen camera's correlation after the first rendered round, and the best of another
-    /// place ([`CameraEvidence::other_place`] away) in that round, if any: how distinct it is.
+    /// The chosen camera's correlation after the first rendered round.
     #[serde(default)]
-    pub first_round: [f64; 2],
+    pub first_round: f64,
+    /// The best correlation of another place ([`CameraEvidence::other_place`] away) in that round,
+    /// when one was scored there: how distinct the chosen place is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub other_place: Option<f64>,
     /// Finalists refined past the first round (1, or more when the best one's evidence was weak;
     /// [`LocalizeConfig::fallbacks`]).
     #[serde(default)]
@@ -500,7 +503,8 @@ fn judged(finished: &Finished, rounds: &[Alignment], evidence: &CameraEvidence) 
         search_score: 0.0,
         confidence,
         warning,
-        first_round: [finished.first_round, other.unwrap_or(f64::NAN)],
+        first_round: finished.first_round,
+        other_place: other,
         tried: finished.tried,
         tilt_deg: 0.0,
         seconds: [0.0; 3],

@@ -345,12 +345,52 @@ struct Target<'a, F> {
     /// [`crate::evidence::residual`]; a constant where it has no surface).
     room_error: Vec<f32>,
     /// The scores computed so far ([`hypothesis_score`]), by scene and pose.
-    scores: ScoreMemo<Score>,
+    scores: ScoreMemo<PoseScore>,
 }
 
-/// A hypothesis's score: (score, pixels it explains better than the scene, their fraction of its
-/// visible pixels); see [`score`].
-type Score = (f64, usize, f64);
+/// How well a hypothesis explains the panorama in a scene ([`score`], [`misfit_discounted`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseScore {
+    /// The sum over its visible pixels of the scene's colour error minus its own (sRGB units ×
+    /// pixels), divided by e per [`SearchConfig::wall_distance`] of its room misfit when positive.
+    pub gain: f64,
+    /// Pixels it explains better than the scene.
+    pub explained: usize,
+    /// Their fraction of its visible pixels.
+    pub precision: f64,
+}
+
+impl PoseScore {
+    /// The score of nothing explained (a hypothesis that stands inside a placed object or by the
+    /// camera).
+    const NOTHING: PoseScore = PoseScore {
+        gain: 0.0,
+        explained: 0,
+        precision: 0.0,
+    };
+
+    /// Its visible pixels.
+    fn visible(&self) -> f64 {
+        self.explained as f64 / self.precision.max(1e-9)
+    }
+
+    /// Whether the search places an object so scored: it explains enough pixels, most of those it
+    /// covers, and each of them clearly better than the scene on average
+    /// ([`SearchConfig::min_contrast`]).
+    fn accepted(&self, config: &SearchConfig) -> bool {
+        self.gain >= config.min_score
+            && self.explained >= config.min_pixels
+            && self.precision >= config.min_precision
+            && self.gain >= config.min_contrast * self.visible()
+    }
+}
+
+/// A hypothesis refined by [`descend`]: where it ended and its score there.
+#[derive(Clone, Copy, Debug)]
+struct Refined {
+    pose: Pose,
+    score: PoseScore,
+}
 
 impl<'a, F: Field> Target<'a, F> {
     fn new(input: &SearchInput<'a, F>, config: &SearchConfig) -> Self {
@@ -479,14 +519,13 @@ impl<F> Clone for SearchInput<'_, F> {
 
 impl<F> Copy for SearchInput<'_, F> {}
 
-/// The score of model `m` at `pose` in the empty room: (score, pixels it explains better than
-/// the empty room, their fraction of its visible pixels), as the search ranks hypotheses.
+/// The score of model `m` at `pose` in the empty room, as the search ranks hypotheses.
 pub fn pose_score<F: Field>(
     input: &SearchInput<F>,
     m: usize,
     pose: &Pose,
     config: &SearchConfig,
-) -> (f64, usize, f64) {
+) -> PoseScore {
     let models = relit_models(input);
     let input = SearchInput {
         models: &models,
@@ -551,10 +590,10 @@ pub fn object_standings<F: Field>(
             let score = standing(&target, &models, found, k, config);
             ObjectStanding {
                 id: found[k].id,
-                score: score.0,
-                explained: score.1,
-                precision: score.2,
-                accepted: accepted(&score, config),
+                score: score.gain,
+                explained: score.explained,
+                precision: score.precision,
+                accepted: score.accepted(config),
             }
         })
         .collect()
@@ -677,7 +716,7 @@ fn polished<F: Field>(
     hypotheses
         .into_par_iter()
         .map(|h| Hypothesis {
-            pose: descend(target, placed, models, &h, true, &POLISH_STEPS, config).0,
+            pose: descend(target, placed, models, &h, true, &POLISH_STEPS, config).pose,
             ..h
         })
         .collect()
@@ -864,7 +903,7 @@ fn prune_in<F: Field>(
             let model = &models[h.model];
             let s = hypothesis_score(target, placed, models, &h, true, config);
             Scored {
-                score: s.0,
+                score: s.gain,
                 hypothesis: h,
                 region: axis_region(target, model, &h.pose),
             }
@@ -928,8 +967,8 @@ fn silhouette<F>(target: &Target<F>, cloud: &Cloud, pose: &Pose, depth: &[f32]) 
     ZBuffer::with_thread_local(|buffer| splat(cloud, pose, &view, buffer))
 }
 
-/// How well a silhouette explains the panorama: (score, pixels it explains better than the scene
-/// so far, their fraction of its visible pixels), and the object's tone. The score is the sum over its
+/// How well a silhouette explains the panorama ([`PoseScore`]), its colours under the object's tone.
+/// The score is the sum over its
 /// visible pixels of the scene's colour error there (the empty room's, or a placed object's it would
 /// stand in front of) minus the object's, its colours under the [`Tone`] fitted to those pixels (the
 /// light changed). Both the room and the object are seen there under the light the room around the
@@ -939,10 +978,10 @@ fn score<F>(
     placed: &Placed,
     sil: &Silhouette,
     config: &SearchConfig,
-) -> (f64, usize, f64) {
+) -> PoseScore {
     let judged = judge(target, placed, sil, config);
     if judged.samples.is_empty() {
-        return NO_SCORE;
+        return PoseScore::NOTHING;
     }
     let (mut total, mut wins) = (0.0f64, 0usize);
     for s in &judged.samples {
@@ -958,8 +997,11 @@ fn score<F>(
             wins += 1;
         }
     }
-    let n = judged.samples.len();
-    (total, wins, wins as f64 / n as f64)
+    PoseScore {
+        gain: total,
+        explained: wins,
+        precision: wins as f64 / judged.samples.len() as f64,
+    }
 }
 
 /// A silhouette's visible pixels as the scene and the object would show them, and the object's tone.
@@ -1172,8 +1214,8 @@ fn contenders<F: Field>(
         .par_iter()
         .enumerate()
         .map(|(k, h)| (k, hypothesis_score(target, placed, models, h, true, config)))
-        .filter(|(_, s)| s.0 > 0.0)
-        .map(|(k, s)| (k, s.0))
+        .filter(|(_, s)| s.gain > 0.0)
+        .map(|(k, s)| (k, s.gain))
         .collect();
     scored.sort_by(|a, b| b.1.total_cmp(&a.1));
     let mut per_model = vec![0usize; models.len()];
@@ -1210,30 +1252,26 @@ fn greedy<F: Field>(
         if contenders.is_empty() {
             break;
         }
-        let refined: Vec<(usize, Pose, (f64, usize, f64))> = contenders
+        let refined: Vec<(usize, Refined)> = contenders
             .par_iter()
-            .map(|&k| {
-                let h = &pool[k];
-                let (pose, s) = refine(target, &placed, models, h, config);
-                (k, pose, s)
-            })
+            .map(|&k| (k, refine(target, &placed, models, &pool[k], config)))
             .collect();
         let best = refined
             .iter()
-            .filter(|(_, _, s)| accepted(s, config))
-            .max_by(|a, b| a.2.0.total_cmp(&b.2.0))
-            .map(|(k, pose, s)| (*k, pool[*k].model, *pose, *s));
+            .filter(|(_, r)| r.score.accepted(config))
+            .max_by(|a, b| a.1.score.gain.total_cmp(&b.1.score.gain))
+            .map(|&(k, r)| (k, pool[k].model, r));
         // Contenders that fail once refined leave the pool with the winner.
         let mut drop = vec![false; pool.len()];
-        for (k, _, s) in &refined {
-            drop[*k] = !accepted(s, config);
+        for (k, r) in &refined {
+            drop[*k] = !r.score.accepted(config);
         }
         if let Some((k, ..)) = best {
             drop[k] = true;
         }
         let mut dropped = drop.into_iter();
         pool.retain(|_| !dropped.next().unwrap_or(false));
-        let Some((_, m, pose, (s, tp, _))) = best else {
+        let Some((_, m, Refined { pose, score })) = best else {
             continue;
         };
         let model = &models[m];
@@ -1244,8 +1282,8 @@ fn greedy<F: Field>(
             model: m,
             id,
             object_to_world: pose.to_rows(),
-            score: s,
-            explained: tp,
+            score: score.gain,
+            explained: score.explained,
         });
         suppress_near(&mut pool, m, pose.translation, config);
         pool.extend(support_hypotheses(target, models, m, &pose, config));
@@ -1319,14 +1357,13 @@ fn exchange<F: Field>(
             continue;
         }
         let own: Vec<Hypothesis> = pool.iter().filter(|h| h.model == m).cloned().collect();
-        let starts: Vec<(Pose, (f64, usize, f64))> =
-            contenders(target, &empty, models, &own, config)
-                .par_iter()
-                .map(|&k| refine(target, &empty, models, &own[k], config))
-                .filter(|(_, s)| accepted(s, config))
-                .collect();
+        let starts: Vec<Refined> = contenders(target, &empty, models, &own, config)
+            .par_iter()
+            .map(|&k| refine(target, &empty, models, &own[k], config))
+            .filter(|r| r.score.accepted(config))
+            .collect();
         let mut best: Option<(f64, Vec<Found>, Placed)> = None;
-        for (pose, (s, tp, _)) in starts {
+        for Refined { pose, score } in starts {
             let newcomer = [model.box_at(&pose)];
             let (kept, taken_out): (Vec<Found>, Vec<Found>) =
                 found.iter().cloned().partition(|f| {
@@ -1341,8 +1378,8 @@ fn exchange<F: Field>(
                 model: m,
                 id: free_id(model, &start),
                 object_to_world: pose.to_rows(),
-                score: s,
-                explained: tp,
+                score: score.gain,
+                explained: score.explained,
             });
             let (candidate, candidate_scene) =
                 search_on(target, models, pool.to_vec(), pool, start, config);
@@ -1460,18 +1497,20 @@ fn revisit_first<F: Field>(
                 .into_iter()
                 .map(|i| own[i]),
         );
-        let refined: Vec<(Pose, Score)> = starts
+        let refined: Vec<Refined> = starts
             .par_iter()
             .map(|h| refine(target, &placed, models, h, config))
-            .filter(|(_, s)| accepted(s, config))
+            .filter(|r| r.score.accepted(config))
             .collect();
         // The first of the best scores, in the order of the starts.
-        let best = refined.into_iter().min_by(|a, b| b.1.0.total_cmp(&a.1.0));
+        let best = refined
+            .into_iter()
+            .min_by(|a, b| b.score.gain.total_cmp(&a.score.gain));
         match best {
-            Some((pose, (s, tp, _))) => {
+            Some(Refined { pose, score }) => {
                 found[k].object_to_world = pose.to_rows();
-                found[k].score = s;
-                found[k].explained = tp;
+                found[k].score = score.gain;
+                found[k].explained = score.explained;
                 k += 1;
             }
             None => {
@@ -1526,7 +1565,7 @@ fn hypothesis_score<F: Field>(
     h: &Hypothesis,
     coarse: bool,
     config: &SearchConfig,
-) -> Score {
+) -> PoseScore {
     let key = ScoreKey {
         object: h.key(),
         coarse,
@@ -1536,9 +1575,6 @@ fn hypothesis_score<F: Field>(
     })
 }
 
-/// The score of nothing explained (a hypothesis that stands inside a placed object or by the camera).
-const NO_SCORE: Score = (0.0, 0, 0.0);
-
 /// [`hypothesis_score`] computed, not looked up.
 fn score_afresh<F: Field>(
     target: &Target<F>,
@@ -1547,9 +1583,9 @@ fn score_afresh<F: Field>(
     coarse: bool,
     pose: &Pose,
     config: &SearchConfig,
-) -> Score {
+) -> PoseScore {
     if placed.collides(model, pose, config) || blocks_camera(target, model, pose, config) {
-        return NO_SCORE;
+        return PoseScore::NOTHING;
     }
     let cloud = if coarse { &model.coarse } else { &model.fine };
     let sil = silhouette(target, cloud, pose, &placed.depth);
@@ -1574,14 +1610,14 @@ fn blocks_camera<F>(
 /// A score `s` of `model` at `pose` divided by e per [`SearchConfig::wall_distance`] of its
 /// [`room_misfit`] (a loss is left as it is).
 fn misfit_discounted<F: Field>(
-    mut s: (f64, usize, f64),
+    mut s: PoseScore,
     target: &Target<F>,
     model: &ObjectModel,
     pose: &Pose,
     config: &SearchConfig,
-) -> (f64, usize, f64) {
-    if s.0 > 0.0 {
-        s.0 *= (-(room_misfit(target.room, model, pose) / config.wall_distance) as f64).exp();
+) -> PoseScore {
+    if s.gain > 0.0 {
+        s.gain *= (-(room_misfit(target.room, model, pose) / config.wall_distance) as f64).exp();
     }
     s
 }
@@ -1617,15 +1653,6 @@ fn room_misfit<F: Field>(room: &F, model: &ObjectModel, pose: &Pose) -> f32 {
 /// 76.4 %).
 const BACK_ENDS: f64 = 0.5;
 
-fn accepted(s: &(f64, usize, f64), config: &SearchConfig) -> bool {
-    let (score, wins, precision) = *s;
-    let visible = wins as f64 / precision.max(1e-9);
-    score >= config.min_score
-        && wins >= config.min_pixels
-        && precision >= config.min_precision
-        && score >= config.min_contrast * visible
-}
-
 /// The score of the `k`-th object of `found` among the others, as [`hypothesis_score`] gives it
 /// (nothing where it collides with them).
 fn standing<F: Field>(
@@ -1634,14 +1661,14 @@ fn standing<F: Field>(
     found: &[Found],
     k: usize,
     config: &SearchConfig,
-) -> (f64, usize, f64) {
+) -> PoseScore {
     let mut rest = found.to_vec();
     rest.remove(k);
     let others = placed_scene(target, models, &rest, config);
     let (f, model) = (&found[k], &models[found[k].model]);
     let pose = f.pose();
     if others.collides(model, &pose, config) {
-        return NO_SCORE;
+        return PoseScore::NOTHING;
     }
     let sil = silhouette(target, &model.fine, &pose, &others.depth);
     let s = score(target, &others, &sil, config);
@@ -1716,7 +1743,7 @@ fn refine<F: Field>(
     models: &[ObjectModel],
     start: &Hypothesis,
     config: &SearchConfig,
-) -> (Pose, Score) {
+) -> Refined {
     descend(target, placed, models, start, false, &REFINE_STEPS, config)
 }
 
@@ -1737,7 +1764,7 @@ fn descend<F: Field>(
     coarse: bool,
     steps: &[(f64, f64)],
     config: &SearchConfig,
-) -> (Pose, Score) {
+) -> Refined {
     let m = start.model;
     let model = &models[m];
     let eval = |pose: &LatticePose| {
@@ -1796,7 +1823,7 @@ fn descend<F: Field>(
                     continue;
                 }
                 let s = eval(&candidate);
-                if s.0 > best.0 {
+                if s.gain > best.gain {
                     best = s;
                     pose = candidate;
                     taken = Some(j);
@@ -1808,7 +1835,10 @@ fn descend<F: Field>(
             }
         }
     }
-    (pose.pose(), best)
+    Refined {
+        pose: pose.pose(),
+        score: best,
+    }
 }
 
 #[cfg(test)]
@@ -1943,12 +1973,20 @@ mod tests {
         let config = SearchConfig::default();
         // 1000 visible pixels, 950 of them better: a nightstand on the floor, gaining 0.012 per pixel
         // on average where the lamp's glow falls, against a true one gaining 0.025 on 220 pixels.
-        assert!(!accepted(&(12.0, 950, 0.95), &config));
-        assert!(accepted(&(5.5, 176, 0.8), &config));
+        let accepted = |gain, explained, precision| {
+            PoseScore {
+                gain,
+                explained,
+                precision,
+            }
+            .accepted(&config)
+        };
+        assert!(!accepted(12.0, 950, 0.95));
+        assert!(accepted(5.5, 176, 0.8));
         // The other limits still hold: too few pixels, too small a fraction of them, too low a score.
-        assert!(!accepted(&(5.5, 20, 0.8), &config));
-        assert!(!accepted(&(5.5, 176, 0.4), &config));
-        assert!(!accepted(&(0.5, 26, 0.9), &config));
+        assert!(!accepted(5.5, 20, 0.8));
+        assert!(!accepted(5.5, 176, 0.4));
+        assert!(!accepted(0.5, 26, 0.9));
     }
 
     #[test]
@@ -2188,7 +2226,7 @@ mod tests {
         for tint in tints {
             in_tinted_view(tint, |target, placed, model, pose| {
                 let s = score_afresh(target, placed, model, false, pose, &config);
-                assert!(accepted(&s, &config), "tint {tint}: {s:?}");
+                assert!(s.accepted(&config), "tint {tint}: {s:?}");
             });
         }
     }

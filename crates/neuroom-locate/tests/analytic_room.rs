@@ -368,12 +368,12 @@ fn the_true_pose_scores_above_a_turned_or_shifted_one() {
     let config = SearchConfig::default();
     let score = |pose: &Pose| pose_score(&input, 0, pose, &config);
     let best = score(&truth);
-    assert!(best.0 > 0.0 && best.2 > 0.8, "{best:?}");
+    assert!(best.gain > 0.0 && best.precision > 0.8, "{best:?}");
     let turned = Pose::from_yaw_translation(0.5 + std::f64::consts::FRAC_PI_2, truth.translation);
     let shifted = Pose::from_yaw_translation(0.5, truth.translation + DVec3::new(0.0, 0.3, 0.0));
     for other in [turned, shifted] {
         let s = score(&other);
-        assert!(s.0 < best.0, "{s:?} ≥ {best:?}");
+        assert!(s.gain < best.gain, "{s:?} ≥ {best:?}");
     }
 }
 
@@ -383,13 +383,13 @@ fn no_object_is_placed_where_the_camera_stands() {
     let scene = PlacedBox::at(truth);
     let input = scene.input();
     let config = SearchConfig::default();
-    assert_eq!(pose_score(&input, 0, &truth, &config).0, 0.0);
+    assert_eq!(pose_score(&input, 0, &truth, &config).gain, 0.0);
     let anywhere = SearchConfig {
         camera_clearance: f64::NEG_INFINITY,
         ..config
     };
     let seen = pose_score(&input, 0, &truth, &anywhere);
-    assert!(seen.0 > 0.0, "{seen:?}");
+    assert!(seen.gain > 0.0, "{seen:?}");
 }
 
 #[test]

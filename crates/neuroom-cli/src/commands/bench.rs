@@ -446,8 +446,8 @@ fn run_locate(a: &LocateArgs) -> anyhow::Result<()> {
             s.camera_rotation_error_deg,
             s.located.camera.tilt_deg,
             s.located.camera.score,
-            s.located.camera.first_round[0],
-            s.located.camera.first_round[1],
+            s.located.camera.first_round,
+            s.located.camera.other_place.unwrap_or(f64::NAN),
             s.located.camera.confidence,
             if s.located.camera.warning.is_some() {
                 ", said lost"
