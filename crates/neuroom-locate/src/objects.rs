@@ -1164,24 +1164,21 @@ fn weighted_tone(samples: &[ToneSample], weights: &[f64], config: &SearchConfig)
             light: [DVec3::ZERO; 3],
         };
     }
-    // The normal equations of the directional term: of all channels together, and of each.
-    let mut all = LightSystem::EMPTY;
-    let mut each = [LightSystem::EMPTY; 3];
+    // The normal equations of the directional term: one system per channel, or one for all three.
+    let mut systems = [LightSystem::EMPTY; 3];
     for (s, w) in samples.iter().zip(weights) {
         for (k, g) in gain.iter().enumerate() {
             let lit = s.cover * g * s.learnt[k] as f64;
             let rest = s.query[k] as f64 - (1.0 - s.cover) * s.room[k] as f64 - lit;
             let row = s.normal.as_dvec3() * lit;
-            all.add(row, rest, *w);
-            if config.chromatic_shading {
-                each[k].add(row, rest, *w);
-            }
+            let system = if config.chromatic_shading { k } else { 0 };
+            systems[system].add(row, rest, *w);
         }
     }
     let light = if config.chromatic_shading {
-        each.map(|system| system.solved(config.directional_shading))
+        systems.map(|system| system.solved(config.directional_shading))
     } else {
-        [all.solved(config.directional_shading); 3]
+        [systems[0].solved(config.directional_shading); 3]
     };
     Tone { gain, light }
 }
