@@ -83,11 +83,11 @@ pub struct LocalizeConfig {
     pub lost_search: LostSearch,
     /// When the found camera's evidence is not strong ([`CameraEvidence::strong`]), the rounds after
     /// the first are run again from four starts this far (metres) from it, along the room's two
-    /// horizontal axes, and the camera that correlates best is kept; 0 (the default) leaves the
+    /// horizontal axes, and the camera that correlates best is kept. Under a light unlike the
+    /// captures' a light's edges can hold the alignment a few centimetres to decimetres from the
+    /// camera, and a start on the camera's other side descends to it. 0 (the default) leaves the
     /// camera as found: on the validation suite the cameras came nearer but the objects found from
-    /// them fell (docs/experiment-log.md). Under a light unlike the captures' a light's edges can hold the alignment a
-    /// few centimetres to decimetres from the camera, and a start on the camera's other side
-    /// descends to it.
+    /// them fell (docs/experiment-log.md).
     #[serde(default)]
     pub restart_offset: f64,
 }
