@@ -166,6 +166,22 @@ impl Found {
     pub fn pose(&self) -> Pose {
         Pose::from_rows_unchecked(&self.object_to_world)
     }
+
+    /// Model `model`, given instance id `id`, at the pose and with the score of `refined`.
+    fn refined(model: usize, id: u16, refined: Refined) -> Self {
+        Self {
+            model,
+            id,
+            object_to_world: refined.pose.to_rows(),
+            score: refined.score.gain,
+            explained: refined.score.explained,
+        }
+    }
+
+    /// Moves it to the pose of `refined`, with that pose's score.
+    fn take(&mut self, refined: Refined) {
+        *self = Self::refined(self.model, self.id, refined);
+    }
 }
 
 /// How far (metres) an object standing on another may be from resting on its top face.
@@ -1311,20 +1327,14 @@ fn greedy<F: Field>(
         }
         let mut dropped = drop.into_iter();
         pool.retain(|_| !dropped.next().unwrap_or(false));
-        let Some((_, m, Refined { pose, score })) = best else {
+        let Some((_, m, refined)) = best else {
             continue;
         };
-        let model = &models[m];
+        let (model, pose) = (&models[m], refined.pose);
         placed.add(target, models, &Hypothesis { model: m, pose }, config);
         let id = free_id(model, &found);
         used[m] += 1;
-        found.push(Found {
-            model: m,
-            id,
-            object_to_world: pose.to_rows(),
-            score: score.gain,
-            explained: score.explained,
-        });
+        found.push(Found::refined(m, id, refined));
         suppress_near(&mut pool, m, pose.translation, config);
         pool.extend(support_hypotheses(target, models, m, &pose, config));
     }
@@ -1403,8 +1413,8 @@ fn exchange<F: Field>(
             .filter(|r| r.score.accepted(config))
             .collect();
         let mut best: Option<(f64, Vec<Found>, Placed)> = None;
-        for Refined { pose, score } in starts {
-            let newcomer = [model.box_at(&pose)];
+        for refined in starts {
+            let newcomer = [model.box_at(&refined.pose)];
             let (kept, taken_out): (Vec<Found>, Vec<Found>) =
                 found.iter().cloned().partition(|f| {
                     let at = f.pose();
@@ -1414,13 +1424,7 @@ fn exchange<F: Field>(
                 continue;
             }
             let mut start = without_orphans(models, kept);
-            start.push(Found {
-                model: m,
-                id: free_id(model, &start),
-                object_to_world: pose.to_rows(),
-                score: score.gain,
-                explained: score.explained,
-            });
+            start.push(Found::refined(m, free_id(model, &start), refined));
             let (candidate, candidate_scene) =
                 search_on(target, models, pool.to_vec(), pool, start, config);
             let gain = scene.error_gain(&candidate_scene);
@@ -1547,10 +1551,8 @@ fn revisit_first<F: Field>(
             .into_iter()
             .min_by(|a, b| b.score.gain.total_cmp(&a.score.gain));
         match best {
-            Some(Refined { pose, score }) => {
-                found[k].object_to_world = pose.to_rows();
-                found[k].score = score.gain;
-                found[k].explained = score.explained;
+            Some(refined) => {
+                found[k].take(refined);
                 k += 1;
             }
             None => {
