@@ -860,6 +860,7 @@ impl<'a> Trainer<'a> {
     /// corrections (a checkpoint adds the ray choice's error map, see [`Trainer::save`]).
     pub fn trainer_json(&self) -> serde_json::Value {
         serde_json::json!({
+            "revision": crate::reuse::TRAINING_REVISION,
             "state": self.state,
             "light_codes": self.lights,
             "kind": self.kind,

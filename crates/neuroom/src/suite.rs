@@ -154,20 +154,36 @@ pub fn suite_rooms(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     Ok(rooms)
 }
 
-/// The cache folder of `room`'s models under `cache`: keyed by the training configuration and by the
-/// bytes of room.json and of every capture's transforms.json, so changed budgets or a regenerated room
-/// train anew instead of reusing stale models. The per-frame corrections' settings are left out of a
-/// configuration's serialised form while they are the defaults; a room whose captures come from a
-/// phone (corrections learned) is keyed by them too, so a change of those defaults retrains it.
+/// The cache folder of `room`'s models under `cache`: keyed by the training configuration, the
+/// training code's revision ([`neuroom_train::TRAINING_REVISION`]) and the bytes of room.json and of
+/// every capture's transforms.json, so changed budgets, a build that trains other bits or a
+/// regenerated room train anew instead of reusing stale models. The per-frame corrections' settings
+/// are left out of a configuration's serialised form while they are the defaults; a room whose
+/// captures come from a phone (corrections learned) is keyed by them too, so a change of those
+/// defaults retrains it.
 pub fn cached_models_dir(
     cache: &Path,
     room: &Path,
     training: &SuiteTraining,
 ) -> anyhow::Result<PathBuf> {
+    cached_models_dir_of_revision(cache, room, training, neuroom_train::TRAINING_REVISION)
+}
+
+/// [`cached_models_dir`] for the training code's revision `revision`. Revision 0 adds nothing to the
+/// key: the caches made before revisions were counted hold its models, and keep their folders.
+fn cached_models_dir_of_revision(
+    cache: &Path,
+    room: &Path,
+    training: &SuiteTraining,
+    revision: u32,
+) -> anyhow::Result<PathBuf> {
     let parsed = crate::read_room(room)?;
     let config = training.options().config();
     let mut hash = Sha256::new();
     hash.update(serde_json::to_vec(&config)?);
+    if revision > 0 {
+        hash.update(revision.to_le_bytes());
+    }
     let room_json = room.join("room.json");
     hash.update(std::fs::read(&room_json).with_context(|| format!("{}", room_json.display()))?);
     let mut captures: Vec<&Path> = std::iter::once(parsed.background.capture.as_path())
@@ -342,6 +358,18 @@ mod tests {
         assert_eq!(mean.camera_position_error_max_cm, 250.0);
         assert_eq!(mean.panoramas, 12);
         assert!(mean.initial.is_none());
+    }
+
+    #[test]
+    fn a_build_that_trains_other_bits_caches_into_another_folder() {
+        let room = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../suite/dining");
+        let (cache, training) = (Path::new("cache"), SuiteTraining::default());
+        let at =
+            |revision| cached_models_dir_of_revision(cache, &room, &training, revision).unwrap();
+        assert_eq!(at(0), at(0));
+        assert_ne!(at(1), at(0));
+        assert_ne!(at(2), at(1));
+        assert!(at(1).starts_with(cache.join("")), "{}", at(1).display());
     }
 
     #[test]
