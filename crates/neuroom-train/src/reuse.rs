@@ -12,7 +12,7 @@ use std::path::Path;
 /// configuration train other bits (another order of the random draws, of a sum, another
 /// initialisation). Models record the revision that trained them (`trainer.revision` in their
 /// `config.json`; 0 where it is missing, the models of builds before it was recorded); a model of
-/// another revision is not resumed or reused ([`check_saved_budget`]), and the validation suite's
+/// another revision is not resumed or reused (`train_room` refuses it), and the validation suite's
 /// cache keys its folders by it.
 pub const TRAINING_REVISION: u32 = 0;
 
