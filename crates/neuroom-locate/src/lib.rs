@@ -28,6 +28,7 @@ pub mod localize;
 mod memo;
 pub mod merge;
 pub mod objects;
+mod outline;
 pub mod point_light;
 pub mod shading;
 pub mod sphere_image;
