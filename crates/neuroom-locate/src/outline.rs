@@ -8,8 +8,10 @@
 //! whose first pixel the hypothesis covers and whose second it does not, the panorama's step (3×3
 //! box-blurred colours one pixel inside and one outside, so that a pixel of error in the outline still
 //! finds the step) beyond the step the scene without the hypothesis shows there. The panorama's noise
-//! makes a step of its own everywhere; its typical size over the whole panorama is subtracted, so that
-//! an outline across an even surface earns nothing on average, whatever the panorama's noise.
+//! makes a step of its own everywhere, and a texture the room's model renders blurred (a checkered
+//! floor) makes steps all over it; their typical size around the pixel (the median over a cell of the
+//! panorama, interpolated between cells) is subtracted, so that an outline across an even or evenly
+//! textured surface earns nothing on average, whatever the panorama's noise.
 
 use crate::evidence::colour_error;
 
@@ -19,8 +21,13 @@ pub(crate) struct OutlineSteps {
     height: usize,
     /// The query's colours, 3×3 box-blurred.
     blurred_query: Vec<[f32; 3]>,
-    /// The median over the panorama's pixel pairs of the query's step beyond the empty room's.
-    noise: f32,
+    /// Per cell of `cell` × `cell` pixels (row by row), the median over its pixel pairs of the
+    /// query's step beyond the empty room's (the whole panorama's where a cell has none).
+    noise: Vec<f32>,
+    /// Side of a noise cell in pixels (the whole panorama one cell when 0).
+    cell: usize,
+    /// Noise cells along each axis.
+    cells: (usize, usize),
 }
 
 /// A 4-neighbour direction: columns wrap round, rows do not.
@@ -28,33 +35,77 @@ const DIRECTIONS: [(isize, isize); 4] = [(1, 0), (-1, 0), (0, 1), (0, -1)];
 
 impl OutlineSteps {
     /// The steps of `query` (`width × height`, sRGB) against the empty room's colours `room`, over the
-    /// pixels `seen` says the camera saw.
+    /// pixels `seen` says the camera saw; the noise step per cell of `cell` pixels (0: one for the
+    /// whole panorama).
     pub(crate) fn new(
         query: &[[f32; 3]],
         room: &[[f32; 3]],
         seen: impl Fn(usize) -> bool,
-        width: usize,
-        height: usize,
+        size: (usize, usize),
+        cell: usize,
     ) -> Self {
+        let (width, height) = size;
+        let cells = match cell {
+            0 => (1, 1),
+            c => (width.div_ceil(c), height.div_ceil(c)),
+        };
         let mut steps = Self {
             width,
             height,
             blurred_query: box_blur(query, width, height),
-            noise: 0.0,
+            noise: Vec::new(),
+            cell,
+            cells,
         };
         let blurred_room = box_blur(room, width, height);
-        let mut excess: Vec<f32> = (0..width * height)
-            .flat_map(|p| [(p, DIRECTIONS[0]), (p, DIRECTIONS[2])])
-            .filter_map(|(p, d)| {
-                let (inner, outer) = steps.across(p, d)?;
-                (seen(inner) && seen(outer)).then(|| steps.excess(&blurred_room, inner, outer))
-            })
-            .collect();
-        if !excess.is_empty() {
-            let mid = excess.len() / 2;
-            steps.noise = *excess.select_nth_unstable_by(mid, f32::total_cmp).1;
+        let mut per_cell = vec![Vec::new(); cells.0 * cells.1];
+        for p in 0..width * height {
+            for d in [DIRECTIONS[0], DIRECTIONS[2]] {
+                let Some((inner, outer)) = steps.across(p, d) else {
+                    continue;
+                };
+                if seen(inner) && seen(outer) {
+                    per_cell[steps.cell_of(p)].push(steps.excess(&blurred_room, inner, outer));
+                }
+            }
         }
+        let mut all: Vec<f32> = per_cell.concat();
+        let whole = median(&mut all).unwrap_or(0.0);
+        steps.noise = per_cell
+            .iter_mut()
+            .map(|values| median(values).unwrap_or(whole))
+            .collect();
         steps
+    }
+
+    /// The noise cell pixel `p` lies in.
+    fn cell_of(&self, p: usize) -> usize {
+        if self.cell == 0 {
+            return 0;
+        }
+        let (u, v) = (p % self.width, p / self.width);
+        (v / self.cell) * self.cells.0 + u / self.cell
+    }
+
+    /// The noise step at pixel `p`: bilinear between the cells' centres (columns wrap round).
+    fn noise_at(&self, p: usize) -> f32 {
+        if self.cell == 0 {
+            return self.noise[0];
+        }
+        let (u, v) = ((p % self.width) as f32, (p / self.width) as f32);
+        let c = self.cell as f32;
+        let (nx, ny) = self.cells;
+        let x = (u + 0.5) / c - 0.5;
+        let y = ((v + 0.5) / c - 0.5).clamp(0.0, (ny - 1) as f32);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (tx, ty) = (x - x0, y - y0);
+        let column = |i: f32| (i as isize).rem_euclid(nx as isize) as usize;
+        let (c0, c1) = (column(x0), column(x0 + 1.0));
+        let (r0, r1) = (y0 as usize, (y0 as usize + 1).min(ny - 1));
+        let at = |r: usize, col: usize| self.noise[r * nx + col];
+        let top = (1.0 - tx) * at(r0, c0) + tx * at(r0, c1);
+        let bottom = (1.0 - tx) * at(r1, c0) + tx * at(r1, c1);
+        (1.0 - ty) * top + ty * bottom
     }
 
     /// The outline credit of pixel `p` of a hypothesis covering the sorted pixels `inside`, in a scene
@@ -81,7 +132,7 @@ impl OutlineSteps {
             };
             let scene_step = colour_error(self.blur_at(scene, inner), self.blur_at(scene, outer));
             let step = colour_error(self.blurred_query[inner], self.blurred_query[outer]);
-            credit += ((step - scene_step).max(0.0) - self.noise) as f64;
+            credit += ((step - scene_step).max(0.0) - self.noise_at(p)) as f64;
         }
         credit
     }
@@ -112,6 +163,15 @@ impl OutlineSteps {
     fn blur_at(&self, image: &[[f32; 3]], p: usize) -> [f32; 3] {
         blurred_at(image, self.width, self.height, p)
     }
+}
+
+/// The median of `values` (reordered), `None` when there are none.
+fn median(values: &mut [f32]) -> Option<f32> {
+    if values.is_empty() {
+        return None;
+    }
+    let mid = values.len() / 2;
+    Some(*values.select_nth_unstable_by(mid, f32::total_cmp).1)
 }
 
 /// `image` 3×3 box-blurred (columns wrap round, rows are clamped at the top and bottom).
@@ -175,7 +235,7 @@ mod tests {
     fn an_outline_on_the_panoramas_edge_earns_and_one_on_an_even_wall_does_not() {
         let room = with_square(0.5, 0.5);
         let query = with_square(0.5, 0.8);
-        let steps = OutlineSteps::new(&query, &room, |_| true, 16, 8);
+        let steps = OutlineSteps::new(&query, &room, |_| true, (16, 8), 0);
         let on_edge = total_credit(&steps, &room, &square_pixels(5..9, 2..6));
         let elsewhere = total_credit(&steps, &room, &square_pixels(12..16, 2..6));
         assert!(on_edge > 1.0, "{on_edge}");
@@ -185,7 +245,7 @@ mod tests {
     #[test]
     fn an_edge_the_scene_already_shows_earns_nothing() {
         let query = with_square(0.5, 0.8);
-        let steps = OutlineSteps::new(&query, &query, |_| true, 16, 8);
+        let steps = OutlineSteps::new(&query, &query, |_| true, (16, 8), 0);
         let credit = total_credit(&steps, &query, &square_pixels(5..9, 2..6));
         assert!(credit.abs() < 1e-6, "{credit}");
     }
@@ -194,12 +254,45 @@ mod tests {
     fn pixels_inside_the_outline_and_beside_unseen_ones_earn_nothing() {
         let room = with_square(0.5, 0.5);
         let query = with_square(0.5, 0.8);
-        let steps = OutlineSteps::new(&query, &room, |_| true, 16, 8);
+        let steps = OutlineSteps::new(&query, &room, |_| true, (16, 8), 0);
         let inside = square_pixels(5..9, 2..6);
         assert_eq!(steps.credit(&room, &inside, 3 * 16 + 6, |_| true), 0.0);
         let rim = 3 * 16 + 5;
         assert!(steps.credit(&room, &inside, rim, |_| true) > 0.0);
         assert_eq!(steps.credit(&room, &inside, rim, |q| q != rim - 1), 0.0);
+    }
+
+    #[test]
+    fn on_a_textured_floor_an_outline_earns_only_beyond_its_texture_with_cells() {
+        // A 32 × 16 panorama whose left half shows a texture the room does not (a checkered floor its
+        // model renders even): an outline there finds steps, but no more than anywhere around it.
+        let (w, h) = (32, 16);
+        let query: Vec<[f32; 3]> = (0..w * h)
+            .map(|p| {
+                let (u, v) = (p % w, p / w);
+                let level = if u < w / 2 && (u / 4 + v / 4) % 2 == 0 {
+                    0.8
+                } else {
+                    0.5
+                };
+                [level; 3]
+            })
+            .collect();
+        let room = vec![[0.5f32; 3]; w * h];
+        let mut inside: Vec<u32> = (5..11)
+            .flat_map(|v| (4..10).map(move |u| (v * w + u) as u32))
+            .collect();
+        inside.sort_unstable();
+        let credit = |cell| {
+            let steps = OutlineSteps::new(&query, &room, |_| true, (w, h), cell);
+            inside
+                .iter()
+                .map(|&p| steps.credit(&room, &inside, p as usize, |_| true))
+                .sum::<f64>()
+        };
+        let (whole, cells) = (credit(0), credit(8));
+        assert!(whole > 1.0, "{whole}");
+        assert!(cells < 0.25 * whole, "{cells} vs {whole}");
     }
 
     #[test]
