@@ -13,6 +13,8 @@
 //! panorama, interpolated between cells) is subtracted, so that an outline across an even or evenly
 //! textured surface earns nothing on average, whatever the panorama's noise.
 
+use neuroom_core::stats::upper_median_by;
+
 use crate::evidence::colour_error;
 
 /// The query's blurred colours and its noise step, for the outline credit of hypotheses.
@@ -70,10 +72,10 @@ impl OutlineSteps {
             }
         }
         let mut all: Vec<f32> = per_cell.concat();
-        let whole = median(&mut all).unwrap_or(0.0);
+        let whole = upper_median_by(&mut all, f32::total_cmp).unwrap_or(0.0);
         steps.noise = per_cell
             .iter_mut()
-            .map(|values| median(values).unwrap_or(whole))
+            .map(|values| upper_median_by(values, f32::total_cmp).unwrap_or(whole))
             .collect();
         steps
     }
@@ -163,15 +165,6 @@ impl OutlineSteps {
     fn blur_at(&self, image: &[[f32; 3]], p: usize) -> [f32; 3] {
         blurred_at(image, self.width, self.height, p)
     }
-}
-
-/// The median of `values` (reordered), `None` when there are none.
-fn median(values: &mut [f32]) -> Option<f32> {
-    if values.is_empty() {
-        return None;
-    }
-    let mid = values.len() / 2;
-    Some(*values.select_nth_unstable_by(mid, f32::total_cmp).1)
 }
 
 /// `image` 3×3 box-blurred (columns wrap round, rows are clamped at the top and bottom).
