@@ -207,6 +207,11 @@ impl Found {
 /// How far (metres) an object standing on another may be from resting on its top face.
 const SUPPORT_TOLERANCE: f64 = 0.05;
 
+/// How far (metres) beyond its inset edge an object's centre may stand and still rest on its
+/// supporter's top: a pose's rounding (the top's grid is laid out in `f32`), never a step of the
+/// descent. Without it a hypothesis on the grid's edge counted as standing in the air.
+const SUPPORT_EDGE_TOLERANCE: f64 = 1e-3;
+
 #[derive(Clone, Copy, Debug)]
 struct Hypothesis {
     model: usize,
@@ -329,8 +334,9 @@ fn rests_on(base: &OrientedBox, model: &ObjectModel, pose: &Pose) -> bool {
     let local = base.pose.inverse().transform_point(pose.translation);
     let half = 0.5 * base.size;
     let inset = support_inset(model) as f64;
-    local.x.abs() <= half.x - inset
-        && local.y.abs() <= half.y - inset
+    let edge = inset - SUPPORT_EDGE_TOLERANCE;
+    local.x.abs() <= half.x - edge
+        && local.y.abs() <= half.y - edge
         && (local.z - half.z - model.half.z as f64).abs() < SUPPORT_TOLERANCE
 }
 
@@ -346,14 +352,8 @@ fn support_inset(model: &ObjectModel) -> f32 {
 /// rather than leaving it in the air.
 fn without_orphans(models: &[ObjectModel], mut found: Vec<Found>) -> Vec<Found> {
     let held_up = |f: &Found, found: &[Found]| {
-        let Support::On(supporter) = models[f.model].support else {
-            return true;
-        };
-        let pose = f.pose();
-        found.iter().any(|s| {
-            s.model == supporter
-                && rests_on(&models[s.model].box_at(&s.pose()), &models[f.model], &pose)
-        })
+        !matches!(models[f.model].support, Support::On(_))
+            || found.iter().any(|s| stands_on(models, f, s))
     };
     while let Some(k) = found.iter().position(|f| !held_up(f, &found)) {
         found.remove(k);
@@ -1497,6 +1497,16 @@ fn exchange<F: Field>(
     found
 }
 
+/// Whether `object` stands on `base` (its model is held up by `base`'s, and it rests on its top).
+fn stands_on(models: &[ObjectModel], object: &Found, base: &Found) -> bool {
+    models[object.model].support == Support::On(base.model)
+        && rests_on(
+            &models[base.model].box_at(&base.pose()),
+            &models[object.model],
+            &object.pose(),
+        )
+}
+
 /// The search from the objects `start` holds: placements from `hypotheses` while one explains enough,
 /// then a pass over every object (with the whole `pool`); the objects and their scene.
 fn search_on<F: Field>(
@@ -1575,8 +1585,13 @@ fn revisit_first<F: Field>(
         let placed = placed_scene(target, models, &others, config);
         let m = found[k].model;
         let model = &models[m];
+        // An object that stands on another is searched again from where it stands only while it
+        // still rests on something: from the air it would stay there.
+        let on_something =
+            |pose: &Pose| !matches!(model.support, Support::On(_)) || placed.supports(model, pose);
         let mut starts: Vec<Hypothesis> = revisit_starts(model, &found[k].pose())
             .into_iter()
+            .filter(|pose| on_something(pose))
             .map(|pose| Hypothesis { model: m, pose })
             .collect();
         let mut own: Vec<Hypothesis> = pool.iter().filter(|h| h.model == m).cloned().collect();
@@ -1608,7 +1623,16 @@ fn revisit_first<F: Field>(
             .min_by(|a, b| b.score.gain.total_cmp(&a.score.gain));
         match best {
             Some(refined) => {
+                let from = found[k].pose();
                 found[k].take(refined);
+                for j in carried(models, &mut found, k, &from) {
+                    // Those not revisited after it take their score where they were carried.
+                    if j <= k || j >= count {
+                        let s = standing(target, models, &found, j, config);
+                        found[j].score = s.gain;
+                        found[j].explained = s.explained;
+                    }
+                }
                 k += 1;
             }
             None => {
@@ -1625,6 +1649,26 @@ fn revisit_first<F: Field>(
         }
     }
     found
+}
+
+/// Moves what stood on the `k`-th object of `found` when it stood at `from` along with it to where it
+/// stands now, as lifting a table carries the toy on it: an object's support is kept by every move,
+/// never left in the air. Returns the indices of the objects carried.
+fn carried(models: &[ObjectModel], found: &mut [Found], k: usize, from: &Pose) -> Vec<usize> {
+    let to = found[k].pose();
+    let before = Found {
+        object_to_world: from.to_rows(),
+        ..found[k].clone()
+    };
+    let motion = to.compose(&from.inverse());
+    let mut moved = Vec::new();
+    for (j, f) in found.iter_mut().enumerate() {
+        if j != k && stands_on(models, f, &before) {
+            f.object_to_world = motion.compose(&f.pose()).to_rows();
+            moved.push(j);
+        }
+    }
+    moved
 }
 
 /// Where [`revisit`] searches an object's pose again from where it stands at `current`: there, and turned
@@ -1876,7 +1920,7 @@ fn descend<F: Field>(
     let mut best = eval(&pose);
     let vertical = model.support == Support::Wall;
     // An object that stands on another slides on its supporter's top, never off it into the air.
-    let supported = matches!(model.support, Support::On(_)) && placed.supports(model, &start.pose);
+    let supported = matches!(model.support, Support::On(_));
     for &(step, turn) in steps {
         // The move last taken: its opposite leads back to a pose already scored lower.
         let mut taken: Option<usize> = None;
@@ -1944,6 +1988,7 @@ mod tests {
     use super::*;
     use neuroom_field::AnalyticField;
     use neuroom_panorama::cloud::surface_cloud;
+    use std::f64::consts::FRAC_PI_2;
 
     fn model(half: Vec3) -> ObjectModel {
         ObjectModel {
@@ -2177,21 +2222,30 @@ mod tests {
         assert!(!placed.supports(&lamp, &inside));
     }
 
-    #[test]
-    fn taking_a_supporter_out_takes_out_what_stood_on_it() {
-        let table = model(Vec3::new(0.3, 0.3, 0.25));
+    /// A table (model 0) and a lamp that stands on it (model 1).
+    fn table_and_lamp() -> [ObjectModel; 2] {
         let lamp = ObjectModel {
             support: Support::On(0),
             ..model(Vec3::new(0.1, 0.1, 0.15))
         };
-        let models = [table, lamp];
-        let at = |m: usize, id: u16, x: f64, z: f64| Found {
+        [model(Vec3::new(0.3, 0.3, 0.25)), lamp]
+    }
+
+    /// Model `m` found as instance `id` turned by `yaw` at (`x`, 1, `z`).
+    fn found_at(m: usize, id: u16, yaw: f64, x: f64, z: f64) -> Found {
+        Found {
             model: m,
             id,
-            object_to_world: Pose::from_yaw_translation(0.2, DVec3::new(x, 1.0, z)).to_rows(),
+            object_to_world: Pose::from_yaw_translation(yaw, DVec3::new(x, 1.0, z)).to_rows(),
             score: 1.0,
             explained: 30,
-        };
+        }
+    }
+
+    #[test]
+    fn taking_a_supporter_out_takes_out_what_stood_on_it() {
+        let models = table_and_lamp();
+        let at = |m: usize, id: u16, x: f64, z: f64| found_at(m, id, 0.2, x, z);
         let on_table = at(1, 2, 1.1, 0.65);
         let in_the_air = at(1, 3, 2.5, 0.65);
         let scene = vec![on_table.clone(), at(0, 1, 1.0, 0.25), in_the_air];
@@ -2200,6 +2254,51 @@ mod tests {
         assert!(kept.contains(&on_table));
         // The table taken out, its lamp goes too.
         assert!(without_orphans(&models, vec![on_table]).is_empty());
+    }
+
+    #[test]
+    fn every_pose_of_the_support_grid_rests_on_its_supporter() {
+        let (table, lamp) = (
+            model(Vec3::new(0.207, 0.25, 0.24)),
+            model(Vec3::new(0.15, 0.15, 0.2)),
+        );
+        for yaw in [0.0, 1.0, std::f64::consts::PI] {
+            let pose = Pose::from_yaw_translation(yaw, DVec3::new(4.1639, 3.3943, 0.2407));
+            let grid = support_grid(1, &lamp, &table, &pose, &SearchConfig::default());
+            assert!(!grid.is_empty());
+            for h in grid {
+                assert!(
+                    rests_on(&table.box_at(&pose), &lamp, &h.pose),
+                    "{:?}",
+                    h.pose
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_moved_supporter_carries_what_stood_on_it() {
+        let models = table_and_lamp();
+        let at = |m: usize, yaw: f64, x: f64, z: f64| found_at(m, m as u16 + 1, yaw, x, z);
+        let from = Pose::from_yaw_translation(0.2, DVec3::new(1.0, 1.0, 0.25));
+        let mut found = vec![
+            at(0, 0.2, 1.0, 0.25),
+            at(1, 0.5, 1.1, 0.65),
+            at(1, 0.0, 2.5, 0.65),
+        ];
+        // The table moves 1.5 m and turns a quarter turn.
+        let to = Pose::from_yaw_translation(0.2 + FRAC_PI_2, DVec3::new(2.0, 2.0, 0.25));
+        found[0].object_to_world = to.to_rows();
+        assert_eq!(carried(&models, &mut found, 0, &from), vec![1]);
+        let (lamp_pose, box_now) = (found[1].pose(), models[0].box_at(&to));
+        assert!(rests_on(&box_now, &models[1], &lamp_pose));
+        // It keeps its place and heading on the table's top.
+        let before = from.inverse().transform_point(DVec3::new(1.1, 1.0, 0.65));
+        let now = to.inverse().transform_point(lamp_pose.translation);
+        assert!(before.distance(now) < 1e-9);
+        assert!((lamp_pose.yaw() - (0.5 + FRAC_PI_2)).abs() < 1e-9);
+        // The one that stood elsewhere stays.
+        assert_eq!(found[2], at(1, 0.0, 2.5, 0.65));
     }
 
     #[test]
