@@ -71,8 +71,12 @@ impl OutlineSteps {
                 }
             }
         }
-        let mut all: Vec<f32> = per_cell.concat();
-        let whole = upper_median_by(&mut all, f32::total_cmp).unwrap_or(0.0);
+        // The whole panorama's median stands in for a cell with no pairs; only then is it needed.
+        let whole = if per_cell.iter().any(Vec::is_empty) {
+            upper_median_by(&mut per_cell.concat(), f32::total_cmp).unwrap_or(0.0)
+        } else {
+            0.0
+        };
         steps.noise = per_cell
             .iter_mut()
             .map(|values| upper_median_by(values, f32::total_cmp).unwrap_or(whole))
