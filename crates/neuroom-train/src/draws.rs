@@ -188,7 +188,14 @@ pub(crate) fn write_samples(
                 ray.dirs[k] = plan.dir.to_array();
                 ray.appearance[k] = plan.appearance;
                 ray.light[k] = plan.light;
-                ray.zones[k] = sample_zone(t, plan.distance, plan.empty, plan.cos, zone_band);
+                ray.zones[k] = sample_zone(
+                    t,
+                    plan.distance,
+                    plan.empty,
+                    plan.cos,
+                    zone_band,
+                    plan.spread,
+                );
             }
         }
     });

@@ -5,8 +5,9 @@
 //! - Mask: binary cross-entropy of the opacity `Σ wᵢ` against 1 (surface) or 0 (empty ray).
 //! - SDF from depth, per sample at distance `t` on a ray whose surface lies at distance `d` with normal `n`:
 //!   near the surface (`|d − t| < band`) the SDF is regressed (L1) to the signed distance to the tangent
-//!   plane, `(d − t) · |n · dir|`; in front of the band the SDF must lie in `[0, d − t]` (free space, and
-//!   no farther from a surface than the observed point); on an empty ray it must be positive. Behind the
+//!   plane, `(d − t) · |n · dir|`; in front of the band the SDF must lie in `[0, d − t + spread]` (free
+//!   space, and no farther from a surface than the observed point, which noisy depth may have read up
+//!   to `spread` short); on an empty ray it must be positive. Behind the
 //!   band nothing is known. These terms shape the geometry within a few hundred steps; the rendering terms
 //!   then refine colour and sharpness.
 
@@ -138,7 +139,7 @@ pub enum SampleZone {
     },
     /// In front of the band: `0 ≤ SDF ≤ bound`.
     Free {
-        /// Upper bound, `d − t`.
+        /// Upper bound, `d − t + spread`.
         bound: f32,
     },
     /// On an empty ray: `SDF ≥ 0`.
@@ -148,15 +149,31 @@ pub enum SampleZone {
 }
 
 /// The zone of a sample at distance `t` on a ray with observed distance `d` (if any), `cos = |n · dir|`
-/// (1 when the normal is unknown), given the near-surface half-width `band`.
-pub fn sample_zone(t: f32, d: Option<f32>, empty: bool, cos: f32, band: f32) -> SampleZone {
+/// (1 when the normal is unknown), given the near-surface half-width `band` and how far the depth
+/// may read short of the surface, `spread` (its noise; 0 for exact depth).
+///
+/// The free-space bound takes the spread: where the depth reads short by ε, `d − t` is ε less than
+/// the sample's true distance to the surface, and a bound without it would pull the SDF down there,
+/// while a depth that reads long loosens the bound and pushes nothing back. Half the rays of a
+/// noisy capture would pull the surface towards the camera: the model would grow by most of the
+/// noise's σ on every side.
+pub fn sample_zone(
+    t: f32,
+    d: Option<f32>,
+    empty: bool,
+    cos: f32,
+    band: f32,
+    spread: f32,
+) -> SampleZone {
     match d {
         _ if empty => SampleZone::Empty,
         None => SampleZone::Unknown,
         Some(d) if (d - t).abs() < band => SampleZone::Near {
             target: (d - t) * cos,
         },
-        Some(d) if t < d => SampleZone::Free { bound: d - t },
+        Some(d) if t < d => SampleZone::Free {
+            bound: d - t + spread,
+        },
         Some(_) => SampleZone::Unknown,
     }
 }
@@ -255,20 +272,59 @@ mod tests {
     #[test]
     fn sdf_zones_and_hinges() {
         assert!(matches!(
-            sample_zone(1.0, Some(1.01), false, 0.5, 0.02),
+            sample_zone(1.0, Some(1.01), false, 0.5, 0.02, 0.0),
             SampleZone::Near { target } if (target - 0.005).abs() < 1e-6
         ));
         assert!(
-            matches!(sample_zone(0.5, Some(1.0), false, 1.0, 0.02), SampleZone::Free { bound } if (bound - 0.5).abs() < 1e-6)
+            matches!(sample_zone(0.5, Some(1.0), false, 1.0, 0.02, 0.0), SampleZone::Free { bound } if (bound - 0.5).abs() < 1e-6)
         );
         assert_eq!(
-            sample_zone(1.5, Some(1.0), false, 1.0, 0.02),
+            sample_zone(1.5, Some(1.0), false, 1.0, 0.02, 0.0),
             SampleZone::Unknown
         );
-        assert_eq!(sample_zone(1.5, None, true, 1.0, 0.02), SampleZone::Empty);
+        assert_eq!(
+            sample_zone(1.5, None, true, 1.0, 0.02, 0.0),
+            SampleZone::Empty
+        );
         assert_eq!(sdf_loss(0.2, SampleZone::Free { bound: 0.5 }), (0.0, 0.0));
         assert_eq!(sdf_loss(-0.1, SampleZone::Empty), (0.1, -1.0));
         let (l, g) = sdf_loss(0.7, SampleZone::Free { bound: 0.5 });
         assert!((l - 0.2).abs() < 1e-6 && g == 1.0);
+    }
+
+    /// A wall at distance 1 seen head-on by rays whose depth reads it with noise (σ = 1 cm, the
+    /// capture's declared spread of 2σ): the wall position that minimises the summed SDF terms of
+    /// the samples along the rays, the SDF of a wall at `s` being `s − t`. With the spread in the
+    /// free-space bound it stays where it is; without it the rays that read short pull it towards
+    /// the camera by most of σ.
+    #[test]
+    fn noisy_depth_does_not_pull_the_surface_towards_the_camera() {
+        let sigma = 0.01f32;
+        let spread = 2.0 * sigma;
+        // Deterministic noise of standard deviation σ, even on both sides: uniform in ±√3 σ.
+        let noise: Vec<f32> = (0..400)
+            .map(|i| sigma * 3f32.sqrt() * ((i as f32 + 0.5) / 200.0 - 1.0))
+            .collect();
+        let samples: Vec<f32> = (0..120).map(|k| 0.9 + 0.0015 * k as f32).collect();
+        let best_wall = |slack: f32| {
+            let loss = |s: f32| -> f64 {
+                let mut sum = 0.0f64;
+                for e in &noise {
+                    for &t in &samples {
+                        let zone = sample_zone(t, Some(1.0 + e), false, 1.0, spread, slack);
+                        sum += sdf_loss(s - t, zone).0 as f64;
+                    }
+                }
+                sum
+            };
+            (0..=400)
+                .map(|i| 0.98 + 0.0001 * i as f32)
+                .min_by(|a, b| loss(*a).total_cmp(&loss(*b)))
+                .expect("candidates")
+        };
+        let with = best_wall(spread);
+        let without = best_wall(0.0);
+        assert!((with - 1.0).abs() < 0.1 * sigma, "with the spread: {with}");
+        assert!(without < 1.0 - 0.3 * sigma, "without it: {without}");
     }
 }
