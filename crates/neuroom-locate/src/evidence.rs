@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::local_light::RoomLight;
 use crate::shading::panorama_normals;
+use crate::sphere_image::ClipLevel;
 
 /// The input panorama and the empty room, both at the working resolution, at the found camera.
 #[derive(Clone, Debug)]
@@ -77,7 +78,8 @@ pub struct ResidualDetector {
     pub floor: f32,
     /// Smallest region kept (pixels).
     pub min_pixels: usize,
-    /// Pixels whose every channel is brighter than this are light sources, not objects.
+    /// Pixels brighter than this share of the panorama's limit ([`ClipLevel`]) in every channel are
+    /// light sources, not objects.
     pub light_source: f32,
     /// Surfaces whose normal's vertical component is below this (the ceiling, which no object stands
     /// on and which other lamps light very differently) give no evidence.
@@ -111,12 +113,13 @@ impl Detector for ResidualDetector {
         let threshold = (self.factor * median).max(self.floor);
         let (w, h) = (view.width(), view.height());
         let normals = panorama_normals(&view.empty_depth, w, h);
+        let level = ClipLevel::of(&view.query.data);
         let raw: Vec<bool> = residual
             .iter()
             .zip(&view.query.data)
             .zip(&normals)
             .map(|((r, q), n)| {
-                let light = q.iter().all(|c| *c > self.light_source);
+                let light = (q.iter().zip(&level.limit)).all(|(c, l)| *c > self.light_source * l);
                 let ceiling = n.is_some_and(|n| n.z < self.ceiling_normal_z);
                 *r > threshold && !light && !ceiling
             })

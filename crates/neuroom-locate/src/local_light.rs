@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use crate::cell_smooth::{CellSmoother, CellSums};
 use crate::point_light::{PointLight, RoomPixels};
 use crate::shading::{NormalGain, fit_room_shading, panorama_normals};
-use crate::sphere_image::CLIPPED;
+use crate::sphere_image::ClipLevel;
 
 /// The query's light relative to the captures' at every pixel: a gain per colour channel that depends
 /// on the surface's normal ([`crate::shading`]: the light's colour, level and direction, as the whole
@@ -234,12 +234,13 @@ pub fn fit_light_field(
     config: &LocalLightConfig,
 ) -> LightField {
     let (w, h) = (query.width as usize, query.height as usize);
+    let level = ClipLevel::of(&query.data);
     let valid: Vec<bool> = (0..w * h)
         .map(|p| {
             depth[p] > 0.0
                 && seen.is_none_or(|s| s[p])
-                && !query.data[p].iter().all(|c| *c >= CLIPPED)
-                && !empty.data[p].iter().all(|c| *c >= CLIPPED)
+                && !level.clips(&query.data[p])
+                && !ClipLevel::WHITE.clips(&empty.data[p])
         })
         .collect();
     let linear = |c: [f32; 3]| c.map(|x| srgb_to_linear(x).max(TINY));

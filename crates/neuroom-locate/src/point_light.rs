@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 use crate::local_light::{robust_scale, under_gain};
 use crate::shading::surface_points;
-use crate::sphere_image::CLIPPED;
+use crate::sphere_image::ClipLevel;
 
 /// A point light relative to the captures' light: per channel, a gain everywhere plus the light of a
 /// point at `position` (camera frame, metres).
@@ -186,7 +186,7 @@ impl Samples {
         } = *room;
         let (w, h) = (query.width as usize, query.height as usize);
         let points = surface_points(depth, w, h);
-        let clipped = |c: [f32; 3]| c.iter().all(|x| *x >= CLIPPED);
+        let level = ClipLevel::of(&query.data);
         let (mut samples, mut trust) = (Vec::new(), Vec::new());
         for v in (0..h).step_by(STRIDE) {
             let lat = std::f32::consts::PI * (0.5 - (v as f32 + 0.5) / h as f32);
@@ -195,7 +195,10 @@ impl Samples {
                 let (Some(point), Some(normal)) = (points[p], normals[p]) else {
                     continue;
                 };
-                if seen.is_some_and(|s| !s[p]) || clipped(query.data[p]) || clipped(empty.data[p]) {
+                if seen.is_some_and(|s| !s[p])
+                    || level.clips(&query.data[p])
+                    || ClipLevel::WHITE.clips(&empty.data[p])
+                {
                     continue;
                 }
                 let e = empty.data[p].map(srgb_to_linear);

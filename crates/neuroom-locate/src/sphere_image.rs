@@ -20,8 +20,57 @@ pub const PANORAMA_FROM_PINHOLE: DMat3 = DMat3::from_cols(
     DVec3::new(-1.0, 0.0, 0.0),
 );
 
-/// Least sRGB value, in every channel, of a clipped pixel ([`SphereImage::without_clipped`]).
+/// Least sRGB value, in every channel, of a clipped pixel as a share of the image's limit in that
+/// channel ([`ClipLevel`], [`SphereImage::without_clipped`]).
 pub const CLIPPED: f32 = 0.97;
+
+/// Half the top of the linear range, as an sRGB value: one stop under it.
+pub const ONE_STOP_UNDER: f32 = 0.735;
+
+/// The sensor's limit in each channel of an image, as a white-balanced image shows it.
+///
+/// A camera clips its raw values; its white balance then scales each channel, so a burnt-out lamp
+/// is white in a neutral image but (1, 1, 0.88) in a warm one, and a clipped pixel is one at the
+/// limit of *every* channel, whatever each limit is. Each channel's limit is the brightest value it
+/// takes among the pixels at least [`CLIPPED`] in some channel (those the sensor clipped somewhere).
+/// A white balance moves a channel by at most about a stop, so limits of which one lies more than a
+/// stop below the top ([`ONE_STOP_UNDER`]) are no white-balanced clip but a saturated colour (a red
+/// at the red limit only); such an image, and one with no pixel at the limit of any channel, has the
+/// limit 1 in every channel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipLevel {
+    /// The limit of each channel (sRGB).
+    pub limit: [f32; 3],
+}
+
+impl ClipLevel {
+    /// The limits of an image that nothing white-balanced: 1 in every channel.
+    pub const WHITE: ClipLevel = ClipLevel { limit: [1.0; 3] };
+
+    /// The limits the `pixels` show (sRGB).
+    pub fn of<'a>(pixels: impl IntoIterator<Item = &'a [f32; 3]>) -> ClipLevel {
+        let mut limit = [0.0f32; 3];
+        let mut any = false;
+        for c in pixels {
+            if c.iter().any(|x| *x >= CLIPPED) {
+                any = true;
+                for (l, x) in limit.iter_mut().zip(c) {
+                    *l = l.max(*x);
+                }
+            }
+        }
+        if any && limit.iter().all(|l| *l >= ONE_STOP_UNDER) {
+            ClipLevel { limit }
+        } else {
+            Self::WHITE
+        }
+    }
+
+    /// Whether the sRGB colour `c` is at the limit of every channel.
+    pub fn clips(&self, c: &[f32; 3]) -> bool {
+        c.iter().zip(&self.limit).all(|(x, l)| *x >= CLIPPED * l)
+    }
+}
 
 /// How far around a clipped pixel (degrees of longitude) the panorama is taken as not seen: the
 /// glow just around a light source is the light's, not the room's surface.
@@ -137,15 +186,17 @@ impl SphereImage {
         }
     }
 
-    /// This image with its clipped pixels (every channel at least [`CLIPPED`]: a lamp, a window, a
-    /// burnt-out highlight) and the pixels within [`CLIPPED_GROWTH`] of them taken as not seen. Their
+    /// This image with its clipped pixels (at the limit of every channel, [`ClipLevel`]: a lamp, a
+    /// window, a burnt-out highlight) and the pixels within [`CLIPPED_GROWTH`] of them taken as not seen. Their
     /// colour is the sensor's limit and their edges are the light's, which the room's model does not
     /// have: a window bright in the panorama is a dark pane in the room rendered under the captures'
     /// light, and its edges there have the opposite sign.
     pub fn without_clipped(&self) -> SphereImage {
         let (w, h) = (self.width(), self.height());
+        let seen = || (self.rgb.data.iter().enumerate()).filter(|(i, _)| self.sees(*i));
+        let level = ClipLevel::of(seen().map(|(_, c)| c));
         let clipped: Vec<bool> = (self.rgb.data.iter().enumerate())
-            .map(|(i, c)| self.sees(i) && c.iter().all(|x| *x >= CLIPPED))
+            .map(|(i, c)| self.sees(i) && level.clips(c))
             .collect();
         if !clipped.iter().any(|c| *c) {
             return self.clone();
@@ -275,6 +326,32 @@ mod tests {
         assert!((r * DVec3::Y).abs_diff_eq(DVec3::Z, 1e-12));
     }
 
+    /// A white balance scales each channel's limit: a burnt-out window is (1, 1, 0.88) in a warm
+    /// panorama and still clipped, while a colour at the limit of one channel only is not.
+    #[test]
+    fn a_white_balanced_window_is_clipped() {
+        let warm_window = [1.0, 1.0, 0.88];
+        let level = ClipLevel::of(&[[0.5, 0.4, 0.3], warm_window, [0.99, 0.8, 0.5]]);
+        assert_eq!(level.limit, warm_window);
+        assert!(level.clips(&warm_window));
+        assert!(level.clips(&[0.98, 0.99, 0.86]));
+        assert!(
+            !level.clips(&[0.99, 0.8, 0.5]),
+            "a colour at the red limit only"
+        );
+        assert_eq!(
+            ClipLevel::of(&[[0.5, 0.9, 0.96]]),
+            ClipLevel::WHITE,
+            "nothing clipped"
+        );
+        assert_eq!(
+            ClipLevel::of(&[[0.99, 0.8, 0.5]]),
+            ClipLevel::WHITE,
+            "a saturated red is no clip"
+        );
+        assert!(!ClipLevel::WHITE.clips(&warm_window));
+    }
+
     #[test]
     fn clipped_pixels_and_their_glow_are_not_seen() {
         let (w, h) = (240, 120);
@@ -288,7 +365,7 @@ mod tests {
             }
         }
         rgb.data[55 * w + 105] = [1.0, 1.0, 0.9];
-        let masked = SphereImage::panorama(rgb).without_clipped();
+        let masked = SphereImage::panorama(rgb.clone()).without_clipped();
         let grow = (w as f64 * CLIPPED_GROWTH / 360.0).ceil() as usize;
         assert!(!masked.sees(55 * w + 105), "inside the window");
         assert!(!masked.sees(55 * w + 100 - grow), "its glow");
@@ -299,6 +376,12 @@ mod tests {
         let photo = SphereImage::from_photo_at(&ramp_photo(80, 60), &camera, 240);
         let kept = photo.without_clipped();
         assert!((0..w * h).all(|i| kept.sees(i) == photo.sees(i)));
+        // The window as a warm white balance shows it is taken out alike.
+        for c in rgb.data.iter_mut().filter(|c| c.iter().all(|x| *x >= 0.9)) {
+            c[2] *= 0.88;
+        }
+        let warm = SphereImage::panorama(rgb).without_clipped();
+        assert!((0..w * h).all(|i| warm.sees(i) == masked.sees(i)));
     }
 
     #[test]
