@@ -229,23 +229,20 @@ fn seen_from(mut points: Vec<Point>, q: &QueryMap, pose: &Pose) -> Vec<Point> {
 }
 
 /// Residuals of every point that projects where the query saw, with their Jacobians with respect to
-/// `δ`; returns the total weight of the points that do not.
+/// `δ`.
 fn linearize(
     points: &[Point],
     q: &QueryMap,
     pose: &Pose,
     mut visit: impl FnMut(&Point, [f64; 2], [[f64; 6]; 2]),
-) -> f64 {
+) {
     let rt = pose.rotation.transpose();
-    let mut unseen = 0.0;
     for pt in points {
         let p = rt * (pt.world - pose.translation);
         let Some((pix, jp)) = project_jacobian(p, q.width(), q.height()) else {
-            unseen += pt.weight;
             continue;
         };
         if !q.sees(pix.x, pix.y) {
-            unseen += pt.weight;
             continue;
         }
         // ∂p/∂v = −I, ∂p/∂ω = [p]ₓ (p × ω).
@@ -269,21 +266,48 @@ fn linearize(
         }
         visit(pt, r, jac);
     }
-    unseen
 }
 
-/// Robust cost of a point that leaves what the query saw: the Cauchy cost of a residual three times
-/// the scale, so that a photo's alignment cannot lower its cost by looking away from its points.
-const UNSEEN_COST: f64 = std::f64::consts::LN_10;
+/// Robust (Cauchy) costs, at scale `c`, of a step from `pose` to `candidate`: over the points the
+/// query sees from both poses, so that a point moving into or out of what the query saw (a photo's
+/// edge, a light source taken out of a panorama) counts on neither side. Charging such a point a
+/// fixed cost instead holds every alignment near where it starts as soon as the panorama has holes
+/// with long borders; leaving it out of both sides gives a step no gain from it either, so an
+/// alignment cannot lower its cost by looking away from its points.
+fn step_costs(points: &[Point], q: &QueryMap, pose: &Pose, candidate: &Pose, c: f64) -> StepCosts {
+    let cauchy = |e2: f64| (1.0 + e2 / (c * c)).ln();
+    let mut costs = StepCosts {
+        before: 0.0,
+        after: 0.0,
+    };
+    for pt in points {
+        let (Some(a), Some(b)) = (
+            squared_residual(pt, q, pose),
+            squared_residual(pt, q, candidate),
+        ) else {
+            continue;
+        };
+        costs.before += pt.weight * cauchy(a);
+        costs.after += pt.weight * cauchy(b);
+    }
+    costs
+}
 
-/// Robust (Cauchy) cost of the residuals at `pose` with scale `c`.
-fn cost(points: &[Point], q: &QueryMap, pose: &Pose, c: f64) -> f64 {
-    let mut total = 0.0;
-    let unseen = linearize(points, q, pose, |pt, r, _| {
-        let e2 = r[0] * r[0] + r[1] * r[1];
-        total += pt.weight * (1.0 + e2 / (c * c)).ln();
-    });
-    total + unseen * UNSEEN_COST
+/// The robust costs of one step of [`solve_scale`], before and after it.
+struct StepCosts {
+    before: f64,
+    after: f64,
+}
+
+/// The squared residual of `pt` seen from `pose`, when the query saw where it projects.
+fn squared_residual(pt: &Point, q: &QueryMap, pose: &Pose) -> Option<f64> {
+    let p = pose.rotation.transpose() * (pt.world - pose.translation);
+    let pix = neuroom_panorama::sphere::project(p, q.width(), q.height())?;
+    q.sees(pix.x, pix.y).then(|| {
+        (0..2)
+            .map(|c| ((q.values[c].sample(pix.x, pix.y) - pt.feature[c]) as f64).powi(2))
+            .sum()
+    })
 }
 
 /// Median residual norm at `pose`: the robust scale.
@@ -329,14 +353,14 @@ fn solve_scale(points: &[Point], q: &QueryMap, init: Pose, config: &AlignConfig)
                 hess[a][a] = 1.0;
             }
         }
-        let before = cost(points, q, &pose, c);
         let mut improved = false;
         for _ in 0..6 {
             let Some(delta) = solve_damped(&hess, &grad, lambda) else {
                 break;
             };
             let candidate = apply(&pose, &delta);
-            if cost(points, q, &candidate, c) < before {
+            let costs = step_costs(points, q, &pose, &candidate, c);
+            if costs.after < costs.before {
                 pose = candidate;
                 lambda = (lambda * 0.3).max(1e-6);
                 improved = delta.iter().map(|x| x * x).sum::<f64>() > 1e-14;

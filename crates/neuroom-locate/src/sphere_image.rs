@@ -186,8 +186,9 @@ impl SphereImage {
         }
     }
 
-    /// This image with its clipped pixels (at the limit of every channel, [`ClipLevel`]: a lamp, a
-    /// window, a burnt-out highlight) and the pixels within [`CLIPPED_GROWTH`] of them taken as not seen. Their
+    /// This image with its clipped areas (pixels at the limit of every channel, [`ClipLevel`]: a
+    /// lamp, a window, a burnt-out highlight; opened, so that lone pixels at the limit stay) and the
+    /// pixels within [`CLIPPED_GROWTH`] of them taken as not seen. Their
     /// colour is the sensor's limit and their edges are the light's, which the room's model does not
     /// have: a window bright in the panorama is a dark pane in the room rendered under the captures'
     /// light, and its edges there have the opposite sign.
@@ -198,6 +199,10 @@ impl SphereImage {
         let clipped: Vec<bool> = (self.rgb.data.iter().enumerate())
             .map(|(i, c)| self.sees(i) && level.clips(c))
             .collect();
+        // Opened: a light source that burns out is an area; a lone pixel at the limit is a firefly
+        // or noise on a bright surface, and growing each such pixel by the glow would riddle the
+        // panorama with holes whose borders hold every alignment where it starts.
+        let clipped = crate::evidence::dilate(&crate::evidence::erode(&clipped, w, h), w, h);
         if !clipped.iter().any(|c| *c) {
             return self.clone();
         }
@@ -382,6 +387,32 @@ mod tests {
         }
         let warm = SphereImage::panorama(rgb).without_clipped();
         assert!((0..w * h).all(|i| warm.sees(i) == masked.sees(i)));
+    }
+
+    #[test]
+    fn lone_pixels_at_the_limit_are_no_light_source() {
+        let (w, h) = (240, 120);
+        let mut rgb = ramp_photo(w, h);
+        // Fireflies: single pixels, and pairs, at the limit of every channel.
+        for k in 0..40 {
+            let (u, v) = (7 + 5 * k, 10 + 2 * k);
+            rgb.data[v * w + u] = [1.0; 3];
+            if k % 2 == 0 {
+                rgb.data[v * w + u + 1] = [1.0; 3];
+            }
+        }
+        let panorama = SphereImage::panorama(rgb.clone());
+        assert_eq!(panorama.without_clipped(), panorama);
+        // A lamp of 3 × 3 pixels among them is taken out with its glow.
+        for v in 80..83 {
+            for u in 50..53 {
+                rgb.data[v * w + u] = [1.0; 3];
+            }
+        }
+        let masked = SphereImage::panorama(rgb).without_clipped();
+        assert!(!masked.sees(81 * w + 51));
+        assert!(!masked.sees(81 * w + 49));
+        assert!(masked.sees(10 * w + 7), "a firefly");
     }
 
     #[test]

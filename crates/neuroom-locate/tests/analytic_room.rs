@@ -426,7 +426,7 @@ fn photo(scene: &Scene<AnalyticField>, camera: &Pose) -> (RgbImage, Pinhole) {
 }
 
 #[test]
-#[ignore = "photo localization is not reliable yet: since the alignment counts points leaving the photo's field of view, this case ends off by more than 5 cm (see docs/benchmarks.md, Locating photos)"]
+#[ignore = "photo localization is not reliable yet: this case ends about 25 cm off, beyond the 5 cm it asks (see docs/benchmarks.md, Locating photos)"]
 fn the_camera_of_a_photo_is_found_from_its_field_of_view() {
     let empty = scene(None);
     let db = small_database(&empty);
@@ -475,4 +475,38 @@ fn an_object_in_a_photo_is_placed_and_what_the_photo_cannot_see_is_not_held_agai
     // 9.7 cm here, at 256 columns; the full panorama of this camera places the box within 3 cm, but
     // the photo's resampled pixels score a pose 10 cm nearer as high as the truth (25.6 against 25.5).
     assert!(position < 0.12, "position error {position} m");
+}
+
+#[test]
+fn a_panorama_riddled_with_small_holes_still_aligns() {
+    use neuroom_locate::align::{AlignConfig, Keyframe, align};
+    let empty = scene(None);
+    let truth = Pose::from_yaw_translation(0.7, DVec3::new(2.2, 1.4, 1.4));
+    let width = 128;
+    let (rgb, depth) = render_background(&empty, &truth, width, &RenderConfig::default());
+    // Lone pixels taken out every few pixels, as noise at a bright surface's limit would be: a
+    // step that moves points into or out of them must not count against the step.
+    let (w, h) = (width, width / 2);
+    let seen = (0..w * h)
+        .map(|i| (i % w) % 4 != 1 || (i / w) % 3 != 1)
+        .collect();
+    let query = SphereImage {
+        rgb: rgb.clone(),
+        seen: Some(seen),
+    };
+    let keyframe = Keyframe {
+        rgb: &rgb,
+        depth: &depth,
+        camera_to_world: truth,
+    };
+    let start = Pose::from_yaw_translation(0.75, DVec3::new(2.26, 1.37, 1.4));
+    let config = AlignConfig {
+        sigmas: vec![2.0, 1.0],
+        ..AlignConfig::default()
+    };
+    let found = align(&keyframe, &query, &start, &config).camera_to_world;
+    let position = found.translation.distance(truth.translation);
+    let rotation = neuroom_core::metrics::rotation_error_deg(truth.rotation, found.rotation);
+    assert!(position < 0.02, "position error {position} m");
+    assert!(rotation < 0.3, "rotation error {rotation}°");
 }
