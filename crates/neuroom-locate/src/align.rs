@@ -135,6 +135,11 @@ impl QueryMap {
         }
     }
 
+    /// The query's features at continuous pixel coordinates minus those of `pt`.
+    fn residual(&self, pt: &Point, x: f64, y: f64) -> [f64; 2] {
+        std::array::from_fn(|c| (self.values[c].sample(x, y) - pt.feature[c]) as f64)
+    }
+
     /// Whether continuous pixel coordinates lie well inside what the query saw.
     fn sees(&self, x: f64, y: f64) -> bool {
         self.seen.as_ref().is_none_or(|s| s.sample(x, y) > 0.999)
@@ -253,15 +258,14 @@ fn linearize(
         );
         let dpix_dv = -jp;
         let dpix_dw = jp * skew;
-        let mut r = [0.0; 2];
+        let r = q.residual(pt, pix.x, pix.y);
         let mut jac = [[0.0; 6]; 2];
-        for c in 0..2 {
-            r[c] = (q.values[c].sample(pix.x, pix.y) - pt.feature[c]) as f64;
+        for (c, row) in jac.iter_mut().enumerate() {
             let gx = q.dx[c].sample(pix.x, pix.y) as f64;
             let gy = q.dy[c].sample(pix.x, pix.y) as f64;
             for a in 0..3 {
-                jac[c][a] = gx * dpix_dv.row(0)[a] + gy * dpix_dv.row(1)[a];
-                jac[c][3 + a] = gx * dpix_dw.row(0)[a] + gy * dpix_dw.row(1)[a];
+                row[a] = gx * dpix_dv.row(0)[a] + gy * dpix_dv.row(1)[a];
+                row[3 + a] = gx * dpix_dw.row(0)[a] + gy * dpix_dw.row(1)[a];
             }
         }
         visit(pt, r, jac);
@@ -303,11 +307,8 @@ struct StepCosts {
 fn squared_residual(pt: &Point, q: &QueryMap, pose: &Pose) -> Option<f64> {
     let p = pose.rotation.transpose() * (pt.world - pose.translation);
     let pix = neuroom_panorama::sphere::project(p, q.width(), q.height())?;
-    q.sees(pix.x, pix.y).then(|| {
-        (0..2)
-            .map(|c| ((q.values[c].sample(pix.x, pix.y) - pt.feature[c]) as f64).powi(2))
-            .sum()
-    })
+    q.sees(pix.x, pix.y)
+        .then(|| q.residual(pt, pix.x, pix.y).iter().map(|r| r * r).sum())
 }
 
 /// Median residual norm at `pose`: the robust scale.
