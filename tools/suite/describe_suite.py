@@ -32,10 +32,15 @@ Each room follows the project's room format (`docs/formats.md`): `room.json`, `c
 it) with the ground-truth arrangement `.json` (its `lighting` says what lit it), the ray depth
 `.depth.png` and the instance mask `.mask.png`, `meshes/<object>.ply` (the rendered mesh in the
 canonical frame, metres) and `meta/generation.json` (the config, every asset's provenance, render times).
+`in_room/` is a second room folder: every object captured standing on the floor in the middle of the
+room under the room's capture lighting, as a user scans an object where it stands (its `room.json` gives
+each capture's `capture_to_object`; its `captures/background` links to the room's own), for `neuroom bench masks
+suite/<room>/in_room`.
 
 Regenerate with `tools/suite/make_suite.sh suite` (Debian `blender`, `blender-data`, `python3-numpy`,
-`sweethome3d-furniture`; about 15 minutes a room on 2 cores), then `python3 tools/suite/describe_suite.py
-suite`. The same config renders the same room.
+`sweethome3d-furniture`; about 15 minutes a room on 2 cores) and `tools/suite/make_suite.sh
+--objects-in-room suite` (about a minute an object), then `python3 tools/suite/describe_suite.py suite`.
+The same config renders the same room.
 
 ## Rooms
 

@@ -11,6 +11,10 @@ It writes a room folder in the project's format (docs/formats.md): `room.json`, 
 arrangement, ray depth and instance mask, `meshes/<object>.ply` (the rendered mesh in its canonical frame)
 and `meta/generation.json` (the config, every asset's provenance, render times).
 
+With `--objects-in-room` it renders only `in_room/` next to a room already rendered: a room folder whose
+objects were captured standing in the middle of the room under its capture lighting, views inside the
+room, the object's id in the masks and 0 on the room (the automatic masks' benchmark).
+
 The furniture comes from the Sweet Home 3D catalog of the Debian package `sweethome3d-furniture`; the
 environment maps for the object captures from Blender's own studio lights (`blender-data`). Everything
 the room draws from is seeded by the config's `seed`: the same config renders the same room.
@@ -682,6 +686,85 @@ def capture_background(cfg, out, workdir, threads):
     return {"views": bg["views"], "render_seconds": round(time.time() - start, 1), "lighting": lighting}
 
 
+IN_ROOM_MARGIN_M = 0.2
+"""How far inside the walls, floor and ceiling an in-room capture's eye stays."""
+
+IN_ROOM_VIEWS = 24
+"""Views of an in-room capture: enough for the masks' carving across views, and half the isolated
+captures' so that the suite stays small enough to commit."""
+
+
+def capture_object_in_room(catalog, spec, oid, cfg, out, workdir, threads):
+    """Captures of one object standing on the floor in the middle of the empty room, turned by a seeded
+    heading, under the room's capture lighting: what a user scanning it where it stands takes (the
+    automatic masks' benchmark, `neuroom bench masks`). Views ring it as the isolated captures do, each
+    eye kept inside the room; the mask is the object's id on it and 0 on the room. Returns the room.json
+    entry of the object (its `capture_to_object` maps the room's world to the object's frame)."""
+    cap = cfg["object_capture"]
+    sc = reset_scene(threads)
+    size = build_room(cfg["room"])
+    lighting = add_lights(size, cfg["capture_lighting"], cfg["room"].get("windows", []))
+    log = []
+    ob, osize, _ = import_furniture(catalog, spec, workdir, log)
+    ob.pass_index = oid
+    rng = random.Random(f"{cfg['seed']}/{spec['name']}/in_room")
+    placed = pose_matrix(size[0] / 2, size[1] / 2, osize[2] / 2, rng.uniform(-math.pi, math.pi))
+    ob.matrix_world = placed
+    res = cap["res"]
+    sc.render.resolution_x = sc.render.resolution_y = res
+    cam = camera_object()
+    cam.data.sensor_fit = "HORIZONTAL"
+    cam.data.angle = math.radians(cap["fov_deg"])
+    fl = res / 2 / math.tan(math.radians(cap["fov_deg"]) / 2)
+    radius = 0.5 * math.sqrt(sum(s * s for s in osize))
+    distance = 0.9 * radius / math.sin(math.radians(cap["fov_deg"]) / 2)
+    centre = Vector(placed.translation)
+    passes = Passes(workdir)
+    folder = os.path.join(out, "in_room", "captures", spec["name"])
+    frames = []
+    start = time.time()
+    golden = math.pi * (3 - math.sqrt(5))
+    lo, hi = math.sin(math.radians(cap["el_min_deg"])), math.sin(math.radians(cap["el_max_deg"]))
+    for k in range(IN_ROOM_VIEWS):
+        el = math.asin(lo + (hi - lo) * (k + 0.5) / IN_ROOM_VIEWS)
+        az = k * golden + rng.uniform(-0.1, 0.1)
+        d = distance * rng.uniform(0.95, 1.1)
+        eye = [centre[i] + d * v for i, v in
+               enumerate((math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)))]
+        eye = [min(max(e, IN_ROOM_MARGIN_M), size[i] - IN_ROOM_MARGIN_M) for i, e in enumerate(eye)]
+        jitter = Vector([rng.uniform(-0.05, 0.05) * radius for _ in range(3)])
+        cam.matrix_world = look_at(eye, centre + jitter)
+        bpy.context.view_layer.update()
+        name = f"{k:04d}"
+        render_color(os.path.join(folder, "images", name + ".jpg"), cap["samples"], JPEG_QUALITY["capture"])
+        depth, ids = passes.render()
+        ids = np.where(ids == oid, oid, 0)
+        frames.append(save_frame(folder, name, depth, ids, cam))
+    write_json(os.path.join(folder, "transforms.json"), {
+        "camera_model": "OPENCV", "fl_x": fl, "fl_y": fl, "cx": res / 2, "cy": res / 2, "w": res, "h": res,
+        "k1": 0, "k2": 0, "p1": 0, "p2": 0, "depth_unit_scale_factor": 0.001, "frames": frames,
+        "lighting": lighting})
+    print(f"[suite] {spec['name']} in the room: {round(time.time() - start, 1)} s", flush=True)
+    return {"id": oid, "name": spec["name"], "category": spec["category"],
+            "capture": "captures/" + spec["name"], "relations": relations(spec), "size": osize,
+            "capture_to_object": matrix_rows(placed.inverted())}
+
+
+def write_in_room(catalog, cfg, out, workdir, threads):
+    """`OUT/in_room/`: a room whose objects were captured standing in it (one per distinct model), its
+    background the room's own capture (`captures/background` links to it)."""
+    objects = [capture_object_in_room(catalog, spec, oid, cfg, out, workdir, threads)
+               for oid, spec in enumerate(cfg["objects"], start=1) if "instance_of" not in spec]
+    # The background is the room's own capture, linked so that the folder holds every capture it names.
+    link = os.path.join(out, "in_room", "captures", "background")
+    if not os.path.islink(link):
+        os.symlink(os.path.join("..", "..", "captures", "background"), link)
+    write_json(os.path.join(out, "in_room", "room.json"), {
+        "format": "neuroom.room/1", "name": cfg["name"] + "_in_room",
+        "background": {"capture": "captures/background"}, "objects": objects,
+        "room_box": {"min": [0, 0, 0], "max": cfg["room"]["size"]}})
+
+
 def wall_distance(eye, direction, size):
     """Distance from `eye` along `direction` to the room's box."""
     best = float("inf")
@@ -878,6 +961,8 @@ def main():
     parser.add_argument("--catalog", default=CATALOG_DIR)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--only", nargs="*", help="render only these panoramas (stems); the rest is kept")
+    parser.add_argument("--objects-in-room", action="store_true",
+                        help="render only OUT/in_room/: every object captured standing in the room")
     args = parser.parse_args(argv)
     with open(args.config) as f:
         cfg = json.load(f)
@@ -885,6 +970,10 @@ def main():
     os.makedirs(out, exist_ok=True)
     catalog = Catalog(args.catalog)
     workdir = tempfile.mkdtemp(prefix="neuroom-suite-")
+    if args.objects_in_room:
+        write_in_room(catalog, cfg, out, workdir, args.threads)
+        shutil.rmtree(workdir, ignore_errors=True)
+        return
     meta_path = os.path.join(out, "meta", "generation.json")
     meta = {"objects": {}, "config": cfg, "blender": bpy.app.version_string}
     if os.path.exists(meta_path):

@@ -445,7 +445,9 @@ fn panorama_names(dir: &Path) -> Vec<String> {
 }
 
 /// Checks that every object capture of `dir` sees its object inside its box (`size` about the origin
-/// of its canonical frame, 1 cm margin): the canonical frame and the pinhole convention agree.
+/// of its canonical frame, 1 cm margin), each frame taken to the object's frame through its
+/// `capture_to_object` (identity when absent): the canonical frame, the pinhole convention and, for
+/// objects captured standing in a room, their placement agree.
 fn check_object_captures_in_their_boxes(dir: &Path) {
     let room = read_json(&dir.join("room.json"));
     let objects = room["objects"].as_array().expect("objects");
@@ -474,10 +476,14 @@ fn check_object_captures_in_their_boxes(dir: &Path) {
             num("cx"),
             num("cy"),
         );
+        let capture_to_object = match object.get("capture_to_object") {
+            Some(rows) => pose(rows),
+            None => Pose::IDENTITY,
+        };
         let half = DVec3::from(size) * 0.5 + DVec3::splat(0.01);
         let (mut seen, mut inside) = (0usize, 0usize);
         for f in t["frames"].as_array().expect("frames").iter().step_by(4) {
-            let to_object = pose(&f["transform_matrix"]);
+            let to_object = capture_to_object.compose(&pose(&f["transform_matrix"]));
             let depth = Depth::read(&capture.join(f["depth_file_path"].as_str().unwrap()), 0.001);
             let (_, _, mask) = read_plane(&capture.join(f["instance_file_path"].as_str().unwrap()));
             for v in 0..depth.height {
@@ -524,5 +530,11 @@ fn every_suite_room_follows_the_camera_and_depth_conventions() {
         check_object_captures_in_their_boxes(&dir);
         check_panoramas_against_boxes(&dir, &names);
         check_panorama_depth_against_background(&dir, &names[..2]);
+        // Objects captured standing in the room, where the suite has them (`make_room.py
+        // --objects-in-room`).
+        let in_room = dir.join("in_room");
+        if in_room.join("room.json").is_file() {
+            check_object_captures_in_their_boxes(&in_room);
+        }
     }
 }

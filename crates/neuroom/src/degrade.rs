@@ -4,7 +4,7 @@
 //! its own, some blurred, all through JPEG. Panoramas, ground truth and meshes are copied
 //! unchanged, so the degraded room is scored against the same truth.
 
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 
 use anyhow::Context as _;
 use neuroom_core::formats::{self, Capture, CaptureDevice, Frame};
@@ -40,6 +40,14 @@ pub fn degrade_room(
     let mut captures: Vec<PathBuf> = vec![spec.background.capture.clone()];
     for (capture, _) in spec.objects_by_capture() {
         captures.push(capture.to_path_buf());
+    }
+    // A capture outside the room folder would be degraded outside `out`.
+    if let Some(outside) = captures.iter().find(|c| !stays_inside(c)) {
+        anyhow::bail!(
+            "{}: the capture {} lies outside the room folder; degrade copies only the folder",
+            room.join("room.json").display(),
+            outside.display()
+        );
     }
     let read: Vec<Capture> = captures
         .iter()
@@ -79,6 +87,12 @@ pub fn degrade_room(
         captures: captures.len(),
         frames: total,
     })
+}
+
+/// Whether the relative path `path` names something inside its folder (no `..`, not absolute).
+fn stays_inside(path: &Path) -> bool {
+    path.components()
+        .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
 }
 
 /// One frame of `capture` degraded into the capture folder `dir` (same file names; masks copied).

@@ -68,3 +68,23 @@ fn a_phone_degraded_room_is_a_room_with_the_same_truth() {
         "{again}"
     );
 }
+
+#[test]
+fn a_room_naming_a_capture_outside_its_folder_is_refused_and_nothing_is_written() {
+    let scratch = tempfile::tempdir().unwrap();
+    let room = scratch.path().join("room");
+    std::fs::create_dir(&room).unwrap();
+    let text = std::fs::read_to_string(tiny_room().join("room.json")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    json["background"]["capture"] = "../shared/background".into();
+    std::fs::write(room.join("room.json"), json.to_string()).unwrap();
+    let out = scratch.path().join("out");
+    let err = degrade_room(&room, &out, 3, &mut |_, _| {}).unwrap_err();
+    let message = format!("{err:#}");
+    assert!(
+        message.contains("room.json") && message.contains("outside the room folder"),
+        "{message}"
+    );
+    assert!(!out.exists(), "nothing is written");
+    assert!(!scratch.path().join("shared").exists());
+}
