@@ -600,6 +600,53 @@ def look_at(eye, target):
 # ----------------------------------------------------------------------------------------------
 
 
+class CaptureRing:
+    """Where an object capture's views stand around the object's centre: elevations evenly spread
+    over the config's band (sine-spaced, for even area), azimuths on a golden spiral, each distance
+    and aim jittered a little."""
+
+    def __init__(self, cap, radius, distance):
+        self.lo = math.sin(math.radians(cap["el_min_deg"]))
+        self.hi = math.sin(math.radians(cap["el_max_deg"]))
+        self.radius, self.distance = radius, distance
+
+    def view(self, k, views, rng):
+        """The k-th of `views` views: (eye, point looked at), both relative to the object's centre."""
+        el = math.asin(self.lo + (self.hi - self.lo) * ((k + 0.5) / views))
+        az = k * GOLDEN_ANGLE + rng.uniform(-0.1, 0.1)
+        d = self.distance * rng.uniform(0.95, 1.1)
+        eye = (d * math.cos(el) * math.cos(az), d * math.cos(el) * math.sin(az), d * math.sin(el))
+        target = [rng.uniform(-0.05, 0.05) * self.radius for _ in range(3)]
+        return eye, target
+
+
+GOLDEN_ANGLE = math.pi * (3 - math.sqrt(5))
+"""Radians between successive azimuths of a capture's views: no two views line up."""
+
+
+def capture_camera(cap, size):
+    """The scene's pinhole camera for an object capture of `cap` (its resolution and field of view)
+    and the ring its views stand on, far enough that an object of `size` fills most of the frame:
+    (camera object, focal length in pixels, ring)."""
+    res = cap["res"]
+    bpy.context.scene.render.resolution_x = bpy.context.scene.render.resolution_y = res
+    cam = camera_object()
+    cam.data.sensor_fit = "HORIZONTAL"
+    cam.data.angle = math.radians(cap["fov_deg"])
+    fl = res / 2 / math.tan(math.radians(cap["fov_deg"]) / 2)
+    radius = 0.5 * math.sqrt(sum(s * s for s in size))
+    distance = 0.9 * radius / math.sin(math.radians(cap["fov_deg"]) / 2)
+    return cam, fl, CaptureRing(cap, radius, distance)
+
+
+def write_capture_transforms(folder, res, fl, frames, lighting):
+    """An object capture's transforms.json: square frames of `res` pixels, focal length `fl`."""
+    write_json(os.path.join(folder, "transforms.json"), {
+        "camera_model": "OPENCV", "fl_x": fl, "fl_y": fl, "cx": res / 2, "cy": res / 2, "w": res, "h": res,
+        "k1": 0, "k2": 0, "p1": 0, "p2": 0, "depth_unit_scale_factor": 0.001, "frames": frames,
+        "lighting": lighting})
+
+
 def capture_object(catalog, spec, oid, cfg, out, workdir, threads):
     """Captures of one object alone at the origin of its canonical frame under an HDR environment."""
     cap = cfg["object_capture"]
@@ -610,40 +657,23 @@ def capture_object(catalog, spec, oid, cfg, out, workdir, threads):
     write_ply(os.path.join(out, "meshes", spec["name"] + ".ply"), ob)
     set_hdri(os.path.join(STUDIO_LIGHTS, cap["hdri"]), cap.get("hdri_strength", 1.0))
     sc.render.film_transparent = True
-    res = cap["res"]
-    sc.render.resolution_x = sc.render.resolution_y = res
-    cam = camera_object()
-    cam.data.sensor_fit = "HORIZONTAL"
-    cam.data.angle = math.radians(cap["fov_deg"])
-    fl = res / 2 / math.tan(math.radians(cap["fov_deg"]) / 2)
-    radius = 0.5 * math.sqrt(sum(s * s for s in size))
-    distance = 0.9 * radius / math.sin(math.radians(cap["fov_deg"]) / 2)
+    cam, fl, ring = capture_camera(cap, size)
     passes = Passes(workdir)
     rng = random.Random(f"{cfg['seed']}/{spec['name']}")
     folder = os.path.join(out, "captures", spec["name"])
     frames = []
     start = time.time()
-    golden = math.pi * (3 - math.sqrt(5))
     for k in range(cap["views"]):
-        # Elevations evenly spread over the band (sine-spaced for even area), azimuths on a golden spiral.
-        s = (k + 0.5) / cap["views"]
-        lo, hi = math.sin(math.radians(cap["el_min_deg"])), math.sin(math.radians(cap["el_max_deg"]))
-        el = math.asin(lo + (hi - lo) * s)
-        az = k * golden + rng.uniform(-0.1, 0.1)
-        d = distance * rng.uniform(0.95, 1.1)
-        eye = (d * math.cos(el) * math.cos(az), d * math.cos(el) * math.sin(az), d * math.sin(el))
-        jitter = [rng.uniform(-0.05, 0.05) * radius for _ in range(3)]
-        cam.matrix_world = look_at(eye, jitter)
+        eye, target = ring.view(k, cap["views"], rng)
+        cam.matrix_world = look_at(eye, target)
         bpy.context.view_layer.update()
         name = f"{k:04d}"
         render_color(os.path.join(folder, "images", name + ".jpg"), cap["samples"], JPEG_QUALITY["capture"])
         depth, ids = passes.render()
         ids[ids != oid] = 0
         frames.append(save_frame(folder, name, depth, ids, cam))
-    write_json(os.path.join(folder, "transforms.json"), {
-        "camera_model": "OPENCV", "fl_x": fl, "fl_y": fl, "cx": res / 2, "cy": res / 2, "w": res, "h": res,
-        "k1": 0, "k2": 0, "p1": 0, "p2": 0, "depth_unit_scale_factor": 0.001, "frames": frames,
-        "lighting": {"name": "hdri_" + os.path.splitext(cap["hdri"])[0], "hdri": cap["hdri"]}})
+    write_capture_transforms(folder, cap["res"], fl, frames,
+                             {"name": "hdri_" + os.path.splitext(cap["hdri"])[0], "hdri": cap["hdri"]})
     return size, {"size": size, "asset": provenance, "log": log,
                   "render_seconds": round(time.time() - start, 1), "views": cap["views"]}
 
@@ -710,40 +740,24 @@ def capture_object_in_room(catalog, spec, oid, cfg, out, workdir, threads):
     rng = random.Random(f"{cfg['seed']}/{spec['name']}/in_room")
     placed = pose_matrix(size[0] / 2, size[1] / 2, osize[2] / 2, rng.uniform(-math.pi, math.pi))
     ob.matrix_world = placed
-    res = cap["res"]
-    sc.render.resolution_x = sc.render.resolution_y = res
-    cam = camera_object()
-    cam.data.sensor_fit = "HORIZONTAL"
-    cam.data.angle = math.radians(cap["fov_deg"])
-    fl = res / 2 / math.tan(math.radians(cap["fov_deg"]) / 2)
-    radius = 0.5 * math.sqrt(sum(s * s for s in osize))
-    distance = 0.9 * radius / math.sin(math.radians(cap["fov_deg"]) / 2)
+    cam, fl, ring = capture_camera(cap, osize)
     centre = Vector(placed.translation)
     passes = Passes(workdir)
     folder = os.path.join(out, "in_room", "captures", spec["name"])
     frames = []
     start = time.time()
-    golden = math.pi * (3 - math.sqrt(5))
-    lo, hi = math.sin(math.radians(cap["el_min_deg"])), math.sin(math.radians(cap["el_max_deg"]))
     for k in range(IN_ROOM_VIEWS):
-        el = math.asin(lo + (hi - lo) * (k + 0.5) / IN_ROOM_VIEWS)
-        az = k * golden + rng.uniform(-0.1, 0.1)
-        d = distance * rng.uniform(0.95, 1.1)
-        eye = [centre[i] + d * v for i, v in
-               enumerate((math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)))]
-        eye = [min(max(e, IN_ROOM_MARGIN_M), size[i] - IN_ROOM_MARGIN_M) for i, e in enumerate(eye)]
-        jitter = Vector([rng.uniform(-0.05, 0.05) * radius for _ in range(3)])
-        cam.matrix_world = look_at(eye, centre + jitter)
+        eye, target = ring.view(k, IN_ROOM_VIEWS, rng)
+        eye = [min(max(centre[i] + e, IN_ROOM_MARGIN_M), size[i] - IN_ROOM_MARGIN_M)
+               for i, e in enumerate(eye)]
+        cam.matrix_world = look_at(eye, centre + Vector(target))
         bpy.context.view_layer.update()
         name = f"{k:04d}"
         render_color(os.path.join(folder, "images", name + ".jpg"), cap["samples"], JPEG_QUALITY["capture"])
         depth, ids = passes.render()
         ids = np.where(ids == oid, oid, 0)
         frames.append(save_frame(folder, name, depth, ids, cam))
-    write_json(os.path.join(folder, "transforms.json"), {
-        "camera_model": "OPENCV", "fl_x": fl, "fl_y": fl, "cx": res / 2, "cy": res / 2, "w": res, "h": res,
-        "k1": 0, "k2": 0, "p1": 0, "p2": 0, "depth_unit_scale_factor": 0.001, "frames": frames,
-        "lighting": lighting})
+    write_capture_transforms(folder, cap["res"], fl, frames, lighting)
     print(f"[suite] {spec['name']} in the room: {round(time.time() - start, 1)} s", flush=True)
     return {"id": oid, "name": spec["name"], "category": spec["category"],
             "capture": "captures/" + spec["name"], "relations": relations(spec), "size": osize,
