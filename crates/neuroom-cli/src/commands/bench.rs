@@ -55,10 +55,11 @@ enum Which {
     /// `neuroom bench locate rooms/bedroom models/bedroom --photos 4 --json`
     Locate(LocateArgs),
     /// Automatic object masks against the true ones: for every object captured standing in the room
-    /// (`neuroom synth --objects-in-room`), the masks `neuroom masks` makes with a proposed box, and
-    /// their IoU with the capture's true masks over all frames; the mean and the worst object.
+    /// (`neuroom synth --objects-in-room`, or a validation suite room's `in_room/`), the masks
+    /// `neuroom masks` makes with a proposed box, and their IoU with the capture's true masks over all
+    /// frames; the mean and the worst object.
     ///
-    /// Example: `neuroom bench masks rooms/tiny-in-room --models models/tiny-in-room --json`
+    /// Example: `neuroom bench masks suite/laundry/in_room --json`
     Masks(super::bench_masks::MasksArgs),
     /// What phone data costs: the room and its `neuroom degrade --phone` copy trained with the same
     /// step budgets (cached in `--cache`); per model the held-out PSNR, depth error and Chamfer of

@@ -9,7 +9,8 @@ use neuroom::train::TrainBar;
 /// The arguments of `bench masks`.
 #[derive(clap::Args)]
 pub struct MasksArgs {
-    /// The room folder (objects captured in the room: `neuroom synth --objects-in-room`).
+    /// The room folder (objects captured in the room: `neuroom synth --objects-in-room`, or a suite
+    /// room's `in_room/`).
     room: PathBuf,
     /// A model folder with the room's background model; default: trained with
     /// `--background-steps` into `--cache`.
