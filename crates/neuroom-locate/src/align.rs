@@ -9,7 +9,7 @@
 //! The camera is updated on the right, `camera_to_world ← camera_to_world · exp(δ)`, `δ = (v, ω)` in the
 //! camera frame, so a world point `X` seen at `p = Rᵀ(X − t)` moves to `p − v − ω × p`.
 
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DVec2, DVec3};
 use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_panorama::plane::Plane;
@@ -140,6 +140,12 @@ impl QueryMap {
         std::array::from_fn(|c| (self.values[c].sample(x, y) - pt.feature[c]) as f64)
     }
 
+    /// The pixel where the camera-frame point `p` projects, when the query saw there.
+    fn seen_pixel(&self, p: DVec3) -> Option<DVec2> {
+        neuroom_panorama::sphere::project(p, self.width(), self.height())
+            .filter(|pix| self.sees(pix.x, pix.y))
+    }
+
     /// Whether continuous pixel coordinates lie well inside what the query saw.
     fn sees(&self, x: f64, y: f64) -> bool {
         self.seen.as_ref().is_none_or(|s| s.sample(x, y) > 0.999)
@@ -221,14 +227,7 @@ fn keyframe_points(keyframe: &Keyframe, features: &FeatureMap, valid: &[bool]) -
 fn seen_from(mut points: Vec<Point>, q: &QueryMap, pose: &Pose) -> Vec<Point> {
     if q.seen.is_some() {
         let rt = pose.rotation.transpose();
-        points.retain(|pt| {
-            neuroom_panorama::sphere::project(
-                rt * (pt.world - pose.translation),
-                q.width(),
-                q.height(),
-            )
-            .is_some_and(|pix| q.sees(pix.x, pix.y))
-        });
+        points.retain(|pt| q.seen_pixel(rt * (pt.world - pose.translation)).is_some());
     }
     points
 }
@@ -305,10 +304,8 @@ struct StepCosts {
 
 /// The squared residual of `pt` seen from `pose`, when the query saw where it projects.
 fn squared_residual(pt: &Point, q: &QueryMap, pose: &Pose) -> Option<f64> {
-    let p = pose.rotation.transpose() * (pt.world - pose.translation);
-    let pix = neuroom_panorama::sphere::project(p, q.width(), q.height())?;
-    q.sees(pix.x, pix.y)
-        .then(|| q.residual(pt, pix.x, pix.y).iter().map(|r| r * r).sum())
+    let pix = q.seen_pixel(pose.rotation.transpose() * (pt.world - pose.translation))?;
+    Some(q.residual(pt, pix.x, pix.y).iter().map(|r| r * r).sum())
 }
 
 /// Median residual norm at `pose`: the robust scale.
@@ -424,10 +421,7 @@ fn correlation(points: &[Point], q: &QueryMap, pose: &Pose) -> f64 {
     let rt = pose.rotation.transpose();
     let (mut ab, mut aa, mut bb) = (0.0f64, 0.0f64, 0.0f64);
     for pt in points {
-        let p = rt * (pt.world - pose.translation);
-        let seen = neuroom_panorama::sphere::project(p, q.width(), q.height())
-            .filter(|pix| q.sees(pix.x, pix.y));
-        let Some(pix) = seen else {
+        let Some(pix) = q.seen_pixel(rt * (pt.world - pose.translation)) else {
             aa += pt.weight * pt.feature.iter().map(|a| (*a as f64).powi(2)).sum::<f64>();
             continue;
         };
