@@ -5,7 +5,7 @@
 
 use glam::{DMat3, DVec2, DVec3};
 use neuroom_core::camera::{CameraModel, Pinhole};
-use neuroom_core::image::RgbImage;
+use neuroom_core::image::{RgbImage, linear_to_srgb, srgb_to_linear};
 use neuroom_panorama::plane::{Plane, add_colour, downsample_rgb, for_each_target, nearest_source};
 use neuroom_panorama::sphere::direction;
 
@@ -24,19 +24,31 @@ pub const PANORAMA_FROM_PINHOLE: DMat3 = DMat3::from_cols(
 /// channel ([`ClipLevel`], [`SphereImage::without_clipped`]).
 pub const CLIPPED: f32 = 0.97;
 
-/// Half the top of the linear range, as an sRGB value: one stop under it.
+/// Half a channel's linear value, as an sRGB value, where the channel is at the top of its range:
+/// one stop under it.
 pub const ONE_STOP_UNDER: f32 = 0.735;
 
-/// The sensor's limit in each channel of an image, as a white-balanced image shows it.
+/// The sensor's limit in each channel of an image, as a white-balanced, exposed image shows it.
 ///
 /// A camera clips its raw values; its white balance then scales each channel, so a burnt-out lamp
 /// is white in a neutral image but (1, 1, 0.88) in a warm one, and a clipped pixel is one at the
-/// limit of *every* channel, whatever each limit is. Each channel's limit is the brightest value it
-/// takes among the pixels at least [`CLIPPED`] in some channel (those the sensor clipped somewhere).
-/// A white balance moves a channel by at most about a stop, so limits of which one lies more than a
-/// stop below the top ([`ONE_STOP_UNDER`]) are no white-balanced clip but a saturated colour (a red
-/// at the red limit only); such an image, and one with no pixel at the limit of any channel, has the
-/// limit 1 in every channel.
+/// limit of *every* channel, whatever each limit is. An exposure set after the clip (a darker
+/// rendition, an edit) scales all the limits alike: a window burnt out at one exposure is a flat
+/// area at 0.735 a stop under it, and still no view of the room. So the limits are found at the
+/// image's own top, wherever the exposure put it: each channel's limit is the brightest value it
+/// takes among the pixels that reach, in some channel, [`CLIPPED`] of the image's brightest value
+/// (the share it is of 1, carried to that value in linear light): those the sensor clipped
+/// somewhere. An image whose brightest value is 1 keeps the limits it always had.
+///
+/// A white balance moves a channel by at most about a stop, so limits of which one lies more than
+/// a stop (in linear light) below the brightest ([`ONE_STOP_UNDER`] where that is 1) are no
+/// white-balanced clip but a saturated colour (a red at the red limit only); such an image, and an
+/// empty one, has the limit 1 in every channel. Below the top of the format ([`CLIPPED`]) the limit
+/// is a hypothesis, kept only where the pixels at it are at most half the image: an image mostly
+/// at its own top is evenly lit, not burnt out. In an image that nothing burnt out, the pixels
+/// near its brightest value seldom make an area, and [`SphereImage::without_clipped`] keeps only
+/// areas; where they do (an evenly lit white surface at the image's top), that surface is left out
+/// too.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ClipLevel {
     /// The limit of each channel (sRGB).
@@ -48,19 +60,41 @@ impl ClipLevel {
     pub const WHITE: ClipLevel = ClipLevel { limit: [1.0; 3] };
 
     /// The limits the `pixels` show (sRGB).
-    pub fn of<'a>(pixels: impl IntoIterator<Item = &'a [f32; 3]>) -> ClipLevel {
+    pub fn of<'a, I>(pixels: I) -> ClipLevel
+    where
+        I: IntoIterator<Item = &'a [f32; 3]> + Clone,
+    {
+        let top = (pixels.clone().into_iter())
+            .flat_map(|c| c.iter().copied())
+            .fold(0.0f32, f32::max);
+        if top <= 0.0 {
+            return Self::WHITE;
+        }
+        let linear_top = srgb_to_linear(top);
+        let reaches = linear_to_srgb(srgb_to_linear(CLIPPED) * linear_top);
         let mut limit = [0.0f32; 3];
-        let mut any = false;
-        for c in pixels {
-            if c.iter().any(|x| *x >= CLIPPED) {
-                any = true;
+        for c in pixels.clone() {
+            if c.iter().any(|x| *x >= reaches) {
                 for (l, x) in limit.iter_mut().zip(c) {
                     *l = l.max(*x);
                 }
             }
         }
-        if any && limit.iter().all(|l| *l >= ONE_STOP_UNDER) {
-            ClipLevel { limit }
+        let least = srgb_to_linear(ONE_STOP_UNDER) * linear_top;
+        if !limit.iter().all(|l| srgb_to_linear(*l) >= least) {
+            return Self::WHITE;
+        }
+        let level = ClipLevel { limit };
+        if top >= CLIPPED {
+            return level;
+        }
+        // Below the format's top the limit is a hypothesis: a darkened clip is a part of the image,
+        // while an image mostly at its own top is evenly lit, not burnt out.
+        let (clipped, all) = (pixels.into_iter()).fold((0usize, 0usize), |(c, n), p| {
+            (c + level.clips(p) as usize, n + 1)
+        });
+        if 2 * clipped <= all {
+            level
         } else {
             Self::WHITE
         }
@@ -355,6 +389,20 @@ mod tests {
             "a saturated red is no clip"
         );
         assert!(!ClipLevel::WHITE.clips(&warm_window));
+        let darker = |c: [f32; 3]| c.map(|x| linear_to_srgb(0.5 * srgb_to_linear(x)));
+        let level = ClipLevel::of(&[darker([0.5, 0.4, 0.3]), darker(warm_window)]);
+        assert_eq!(level.limit, darker(warm_window), "a stop darker");
+        assert!(level.clips(&darker([0.98, 0.99, 0.86])));
+        assert_eq!(
+            ClipLevel::of(&[darker([0.99, 0.8, 0.5])]),
+            ClipLevel::WHITE,
+            "a saturated red a stop darker"
+        );
+        assert_eq!(
+            ClipLevel::of(&[[0.4; 3]; 6]),
+            ClipLevel::WHITE,
+            "an evenly lit grey image"
+        );
     }
 
     #[test]
@@ -381,6 +429,10 @@ mod tests {
         let photo = SphereImage::from_photo_at(&ramp_photo(80, 60), &camera, 240);
         let kept = photo.without_clipped();
         assert!((0..w * h).all(|i| kept.sees(i) == photo.sees(i)));
+        // The window a stop darker (an exposure set after the clip) is taken out alike.
+        let darker = rgb.map(|c| c.map(|x| linear_to_srgb(0.5 * srgb_to_linear(x))));
+        let darker = SphereImage::panorama(darker).without_clipped();
+        assert!((0..w * h).all(|i| darker.sees(i) == masked.sees(i)));
         // The window as a warm white balance shows it is taken out alike.
         for c in rgb.data.iter_mut().filter(|c| c.iter().all(|x| *x >= 0.9)) {
             c[2] *= 0.88;
