@@ -447,8 +447,8 @@ fn levelling(panorama: &SphereImage, config: &LocalizeConfig) -> Option<DMat3> {
 }
 
 /// The heading search's `matches` aligned to their database panoramas (`small` is the query at the
-/// database's size), those that stay in the room (`inside`), distinct, best first, with the search's
-/// best match among them; when every one slid out, the search's own database poses.
+/// database's size), those that stay in the room (`inside`), distinct, best first; when every one
+/// slid out, the search's own database poses.
 fn coarse_candidates(
     db: &Database,
     small: &SphereImage,
@@ -470,7 +470,6 @@ fn coarse_candidates(
         })
         .collect();
     coarse.retain(|a| inside(a));
-    let best_match = coarse.first().copied();
     if coarse.is_empty() {
         coarse = matches
             .iter()
@@ -484,34 +483,7 @@ fn coarse_candidates(
             .collect();
     }
     coarse.sort_by(|a, b| b.score.total_cmp(&a.score));
-    let keep = config.finalists.max(1);
-    with_seat_for(
-        distinct(coarse, config.distinct, keep),
-        best_match,
-        config.distinct,
-        keep,
-    )
-}
-
-/// `finalists` (at most `keep`) with `best` among them: where no finalist stands at its place
-/// (within `radius`, [`same_place`]), it takes the last seat.
-///
-/// The heading search and the coarse alignment rank places on different evidence, and they
-/// disagree most in a dark or burnt-out panorama: the search's best place, aligned, may score a
-/// little under the last finalist at the database's size and never be rendered.
-fn with_seat_for(
-    mut finalists: Vec<Alignment>,
-    best: Option<Alignment>,
-    radius: f64,
-    keep: usize,
-) -> Vec<Alignment> {
-    if let Some(best) = best
-        && !finalists.iter().any(|f| same_place(f, &best, radius))
-    {
-        finalists.truncate(keep.saturating_sub(1));
-        finalists.push(best);
-    }
-    finalists
+    distinct(coarse, config.distinct, config.finalists.max(1))
 }
 
 /// The estimate of the `finished` camera, its confidence judged from its correlation and the best
@@ -915,21 +887,6 @@ mod tests {
             camera_to_world: Pose::from_yaw_translation(0.0, DVec3::new(x, 0.0, 0.0)),
             score,
         }
-    }
-
-    #[test]
-    fn the_heading_searchs_best_place_is_always_a_finalist() {
-        let finalists = vec![finalist(0.0, 0.5), finalist(1.0, 0.4), finalist(2.0, 0.3)];
-        let places = |f: &[Alignment]| -> Vec<f64> {
-            f.iter().map(|a| a.camera_to_world.translation.x).collect()
-        };
-        let seated = with_seat_for(finalists.clone(), Some(finalist(5.0, 0.2)), 0.1, 3);
-        assert_eq!(places(&seated), [0.0, 1.0, 5.0], "it takes the last seat");
-        let seated = with_seat_for(finalists.clone(), Some(finalist(1.05, 0.2)), 0.1, 3);
-        assert_eq!(seated, finalists, "a finalist already stands there");
-        let seated = with_seat_for(finalists[..2].to_vec(), Some(finalist(5.0, 0.2)), 0.1, 3);
-        assert_eq!(places(&seated), [0.0, 1.0, 5.0], "a free seat");
-        assert_eq!(with_seat_for(finalists.clone(), None, 0.1, 3), finalists);
     }
 
     /// `start` given the correlation `scores[x]` of its place, where it stands.
