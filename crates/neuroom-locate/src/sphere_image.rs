@@ -355,6 +355,11 @@ mod tests {
         }
     }
 
+    /// `c` exposed a stop darker, as an exposure set after the sensor clipped makes it.
+    fn a_stop_darker(c: [f32; 3]) -> [f32; 3] {
+        c.map(|x| linear_to_srgb(0.5 * srgb_to_linear(x)))
+    }
+
     #[test]
     fn the_pinhole_frame_maps_onto_the_panorama_frame() {
         let r = PANORAMA_FROM_PINHOLE;
@@ -389,12 +394,11 @@ mod tests {
             "a saturated red is no clip"
         );
         assert!(!ClipLevel::WHITE.clips(&warm_window));
-        let darker = |c: [f32; 3]| c.map(|x| linear_to_srgb(0.5 * srgb_to_linear(x)));
-        let level = ClipLevel::of(&[darker([0.5, 0.4, 0.3]), darker(warm_window)]);
-        assert_eq!(level.limit, darker(warm_window), "a stop darker");
-        assert!(level.clips(&darker([0.98, 0.99, 0.86])));
+        let level = ClipLevel::of(&[a_stop_darker([0.5, 0.4, 0.3]), a_stop_darker(warm_window)]);
+        assert_eq!(level.limit, a_stop_darker(warm_window), "a stop darker");
+        assert!(level.clips(&a_stop_darker([0.98, 0.99, 0.86])));
         assert_eq!(
-            ClipLevel::of(&[darker([0.99, 0.8, 0.5])]),
+            ClipLevel::of(&[a_stop_darker([0.99, 0.8, 0.5])]),
             ClipLevel::WHITE,
             "a saturated red a stop darker"
         );
@@ -430,8 +434,7 @@ mod tests {
         let kept = photo.without_clipped();
         assert!((0..w * h).all(|i| kept.sees(i) == photo.sees(i)));
         // The window a stop darker (an exposure set after the clip) is taken out alike.
-        let darker = rgb.map(|c| c.map(|x| linear_to_srgb(0.5 * srgb_to_linear(x))));
-        let darker = SphereImage::panorama(darker).without_clipped();
+        let darker = SphereImage::panorama(rgb.map(|c| a_stop_darker(*c))).without_clipped();
         assert!((0..w * h).all(|i| darker.sees(i) == masked.sees(i)));
         // The window as a warm white balance shows it is taken out alike.
         for c in rgb.data.iter_mut().filter(|c| c.iter().all(|x| *x >= 0.9)) {
