@@ -67,6 +67,7 @@ impl RoomLight {
             )
         };
         let mut shaded = shading.apply(empty, &normals);
+        let clip = ClipLevel::of(&query.data);
         let point = config.point_light.then(|| {
             let room = RoomPixels {
                 query,
@@ -74,12 +75,13 @@ impl RoomLight {
                 depth,
                 normals: &normals,
                 seen,
+                clip,
             };
             let point = PointLight::fit(&room, config.dark_level);
             shaded = point.apply(&shaded, depth, &normals);
             point
         });
-        let field = fit_light_field(query, &shaded, depth, seen, config);
+        let field = fit_light_field(query, clip, &shaded, depth, seen, config);
         Self {
             shading,
             point,
@@ -225,21 +227,22 @@ pub fn linear_under_gain(linear: [f32; 3], g: [f32; 3]) -> [f32; 3] {
 }
 
 /// The light field mapping `empty` onto `query` (both `width × height` panoramas, sRGB) over the pixels
-/// with a room surface (`depth > 0`) that the camera saw (`seen`, all when `None`).
+/// with a room surface (`depth > 0`) that the camera saw (`seen`, all when `None`) and that do not
+/// burn out in the query (`clip`, [`ClipLevel::of`] the query).
 pub fn fit_light_field(
     query: &RgbImage,
+    clip: ClipLevel,
     empty: &RgbImage,
     depth: &[f32],
     seen: Option<&[bool]>,
     config: &LocalLightConfig,
 ) -> LightField {
     let (w, h) = (query.width as usize, query.height as usize);
-    let level = ClipLevel::of(&query.data);
     let valid: Vec<bool> = (0..w * h)
         .map(|p| {
             depth[p] > 0.0
                 && seen.is_none_or(|s| s[p])
-                && !level.clips(&query.data[p])
+                && !clip.clips(&query.data[p])
                 && !ClipLevel::WHITE.clips(&empty.data[p])
         })
         .collect();
@@ -363,7 +366,14 @@ mod tests {
         let (w, h) = (128, 64);
         let (query, empty, light) = spot_scene(w, h);
         let depth = vec![3.0; w * h];
-        let field = fit_light_field(&query, &empty, &depth, None, &LocalLightConfig::default());
+        let field = fit_light_field(
+            &query,
+            ClipLevel::of(&query.data),
+            &empty,
+            &depth,
+            None,
+            &LocalLightConfig::default(),
+        );
         for (u, v) in [(40, 18), (40, 40), (10, 30), (70, 10)] {
             let (got, truth) = (field.gain(v * w + u), light(u, v));
             for k in 0..3 {
@@ -403,7 +413,14 @@ mod tests {
             }
         });
         let depth = vec![3.0; w * h];
-        let field = fit_light_field(&query, &empty, &depth, None, &LocalLightConfig::default());
+        let field = fit_light_field(
+            &query,
+            ClipLevel::of(&query.data),
+            &empty,
+            &depth,
+            None,
+            &LocalLightConfig::default(),
+        );
         let pixels: Vec<u32> = (0..w * h)
             .filter(|p| object(p % w, p / w))
             .map(|p| p as u32)
@@ -436,7 +453,14 @@ mod tests {
             .map(|p| if p % w < 10 { 0.0 } else { 2.0 })
             .collect();
         let seen: Vec<bool> = (0..w * h).map(|p| p % w < 50).collect();
-        let field = fit_light_field(&query, &empty, &depth, Some(&seen), &Default::default());
+        let field = fit_light_field(
+            &query,
+            ClipLevel::of(&query.data),
+            &empty,
+            &depth,
+            Some(&seen),
+            &Default::default(),
+        );
         for p in [5, 30, 60, 32 * 20 + 5] {
             for g in field.gain(p) {
                 assert!((g - 2.0).abs() < 0.05, "pixel {p}: {g}");

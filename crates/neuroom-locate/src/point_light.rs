@@ -117,6 +117,9 @@ pub struct RoomPixels<'a> {
     pub normals: &'a [Option<Vec3>],
     /// The pixels the camera saw (all when `None`).
     pub seen: Option<&'a [bool]>,
+    /// Where the query burns out ([`ClipLevel::of`] the query): clipped pixels say nothing of
+    /// the light.
+    pub clip: ClipLevel,
 }
 
 /// How a point light emits.
@@ -183,10 +186,10 @@ impl Samples {
             depth,
             normals,
             seen,
+            clip,
         } = *room;
         let (w, h) = (query.width as usize, query.height as usize);
         let points = surface_points(depth, w, h);
-        let level = ClipLevel::of(&query.data);
         let (mut samples, mut trust) = (Vec::new(), Vec::new());
         for v in (0..h).step_by(STRIDE) {
             let lat = std::f32::consts::PI * (0.5 - (v as f32 + 0.5) / h as f32);
@@ -196,7 +199,7 @@ impl Samples {
                     continue;
                 };
                 if seen.is_some_and(|s| !s[p])
-                    || level.clips(&query.data[p])
+                    || clip.clips(&query.data[p])
                     || ClipLevel::WHITE.clips(&empty.data[p])
                 {
                     continue;
@@ -498,6 +501,7 @@ mod tests {
             depth: &depth,
             normals: &normals,
             seen: None,
+            clip: ClipLevel::of(&query.data),
         };
         PointLight::fit(&room, 0.01)
     }
