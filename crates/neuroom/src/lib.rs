@@ -5,6 +5,7 @@
 pub mod baseline;
 pub mod bench;
 pub mod bench_fit;
+pub mod bench_level;
 pub mod bench_phone;
 pub mod degrade;
 pub mod demo;

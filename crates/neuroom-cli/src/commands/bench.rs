@@ -61,6 +61,12 @@ enum Which {
     ///
     /// Example: `neuroom bench masks suite/laundry/in_room --json`
     Masks(super::bench_masks::MasksArgs),
+    /// The levelling of tilted panoramas, without models: for every test panorama of the rooms given,
+    /// the error of the up direction `locate` would level it to, as taken and tilted by 10° about
+    /// four axes; their mean, median and largest.
+    ///
+    /// Example: `neuroom bench level suite ../shared/data/blender-lite --json`
+    Level(super::bench_level::LevelArgs),
     /// What phone data costs: the room and its `neuroom degrade --phone` copy trained with the same
     /// step budgets (cached in `--cache`); per model the held-out PSNR, depth error and Chamfer of
     /// both on the room's own views and meshes, and locate's figures with either's models on the
@@ -306,6 +312,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::Fit(a) => fit(a)?,
         Which::Locate(a) => run_locate(&a)?,
         Which::Masks(a) => super::bench_masks::run(&a)?,
+        Which::Level(a) => super::bench_level::run(&a)?,
         Which::Phone(a) => super::bench_phone::run(&a)?,
         Which::Table(a) => super::bench_figures::table(&a)?,
         Which::Baseline(a) => super::bench_figures::baseline(&a)?,

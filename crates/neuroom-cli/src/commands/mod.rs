@@ -2,6 +2,7 @@
 
 pub mod bench;
 mod bench_figures;
+mod bench_level;
 pub mod bench_masks;
 mod bench_phone;
 pub mod bench_suite;
