@@ -108,6 +108,20 @@ pub fn estimate_up(image: &RgbImage, config: &LevelConfig) -> Option<DVec3> {
     Some(up)
 }
 
+/// [`estimate_up`] where it shows a tilt of at least [`LevelConfig::min_tilt_deg`]: the up direction
+/// a panorama is levelled to; `None` takes it as level.
+pub fn tilted_up(image: &RgbImage, config: &LevelConfig) -> Option<DVec3> {
+    estimate_up(image, config)
+        .filter(|up| rotation_angle(&leveling(*up)).to_degrees() >= config.min_tilt_deg)
+}
+
+/// The angle of rotation `r` (radians).
+pub fn rotation_angle(r: &DMat3) -> f64 {
+    ((r.x_axis.x + r.y_axis.y + r.z_axis.z - 1.0) / 2.0)
+        .clamp(-1.0, 1.0)
+        .acos()
+}
+
 /// The up direction with the most edge-plane weight through it, on a grid of tilts (`None` when the
 /// peak holds less than [`LevelConfig::min_peak_share`] of the votes cast).
 fn vote(planes: &[EdgePlane], config: &LevelConfig) -> Option<DVec3> {

@@ -339,6 +339,25 @@ mod tests {
 
     /// A textured room under a light that is brighter and warmer around column 40 than elsewhere, with
     /// a dark object standing in the bright patch.
+    /// [`fit_light_field`] of `query` onto `empty` with the query's own clip level and the default
+    /// settings.
+    fn fitted_field(
+        query: &RgbImage,
+        empty: &RgbImage,
+        depth: &[f32],
+        seen: Option<&[bool]>,
+    ) -> LightField {
+        let clip = ClipLevel::of(&query.data);
+        fit_light_field(
+            query,
+            clip,
+            empty,
+            depth,
+            seen,
+            &LocalLightConfig::default(),
+        )
+    }
+
     fn spot_scene(w: usize, h: usize) -> (RgbImage, RgbImage, impl Fn(usize, usize) -> [f32; 3]) {
         let texture = |u: usize, v: usize| {
             let t = 0.35 + 0.15 * (((u / 3 + v / 5) % 4) as f32 / 3.0);
@@ -366,14 +385,7 @@ mod tests {
         let (w, h) = (128, 64);
         let (query, empty, light) = spot_scene(w, h);
         let depth = vec![3.0; w * h];
-        let field = fit_light_field(
-            &query,
-            ClipLevel::of(&query.data),
-            &empty,
-            &depth,
-            None,
-            &LocalLightConfig::default(),
-        );
+        let field = fitted_field(&query, &empty, &depth, None);
         for (u, v) in [(40, 18), (40, 40), (10, 30), (70, 10)] {
             let (got, truth) = (field.gain(v * w + u), light(u, v));
             for k in 0..3 {
@@ -413,14 +425,7 @@ mod tests {
             }
         });
         let depth = vec![3.0; w * h];
-        let field = fit_light_field(
-            &query,
-            ClipLevel::of(&query.data),
-            &empty,
-            &depth,
-            None,
-            &LocalLightConfig::default(),
-        );
+        let field = fitted_field(&query, &empty, &depth, None);
         let pixels: Vec<u32> = (0..w * h)
             .filter(|p| object(p % w, p / w))
             .map(|p| p as u32)
@@ -453,14 +458,7 @@ mod tests {
             .map(|p| if p % w < 10 { 0.0 } else { 2.0 })
             .collect();
         let seen: Vec<bool> = (0..w * h).map(|p| p % w < 50).collect();
-        let field = fit_light_field(
-            &query,
-            ClipLevel::of(&query.data),
-            &empty,
-            &depth,
-            Some(&seen),
-            &Default::default(),
-        );
+        let field = fitted_field(&query, &empty, &depth, Some(&seen));
         for p in [5, 30, 60, 32 * 20 + 5] {
             for g in field.gain(p) {
                 assert!((g - 2.0).abs() < 0.05, "pixel {p}: {g}");

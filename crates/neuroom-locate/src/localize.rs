@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::align::{AlignConfig, Alignment, Keyframe, align};
 use crate::features::FeatureMap;
-use crate::level::{LevelConfig, estimate_up, leveling};
+use crate::level::{LevelConfig, leveling, rotation_angle, tilted_up};
 use crate::shading::match_shading;
 use crate::sphere_image::SphereImage;
 use crate::stage::LocateStage;
@@ -441,9 +441,7 @@ fn levelling(panorama: &SphereImage, config: &LocalizeConfig) -> Option<DMat3> {
     if panorama.seen.is_some() {
         return None;
     }
-    estimate_up(&panorama.rgb, level)
-        .map(leveling)
-        .filter(|l| rotation_angle(l).to_degrees() >= level.min_tilt_deg)
+    tilted_up(&panorama.rgb, level).map(leveling)
 }
 
 /// The heading search's `matches` aligned to their database panoramas (`small` is the query at the
@@ -523,13 +521,6 @@ fn judged(finished: &Finished, rounds: &[Alignment], evidence: &CameraEvidence) 
         tilt_deg: 0.0,
         seconds: [0.0; 3],
     }
-}
-
-/// The angle of rotation `r` (radians).
-fn rotation_angle(r: &DMat3) -> f64 {
-    ((r.x_axis.x + r.y_axis.y + r.z_axis.z - 1.0) / 2.0)
-        .clamp(-1.0, 1.0)
-        .acos()
 }
 
 /// The best of the finalists refined to the end, and how many were refined past the first round.

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use neuroom_core::camera_effects::CameraEffect;
 use neuroom_core::formats::images::read_rgb;
-use neuroom_locate::level::{LevelConfig, estimate_up};
+use neuroom_locate::level::{LevelConfig, tilted_up};
 use serde::Serialize;
 
 /// The tilts every panorama is also measured under: 10° (the suite's camera effect) about four
@@ -70,12 +70,10 @@ pub struct LevelBenchReport {
     pub tilted: ErrorSpread,
 }
 
-/// The up direction `locate` would level `image` to (camera frame): the estimate when it shows a
-/// tilt of at least [`LevelConfig::min_tilt_deg`], else straight up (the panorama taken as level).
+/// The up direction `locate` would level `image` to (camera frame): [`tilted_up`], else straight up
+/// (the panorama taken as level).
 fn used_up(image: &neuroom_core::image::RgbImage, config: &LevelConfig) -> DVec3 {
-    estimate_up(image, config)
-        .filter(|up| up.angle_between(DVec3::Z).to_degrees() >= config.min_tilt_deg)
-        .unwrap_or(DVec3::Z)
+    tilted_up(image, config).unwrap_or(DVec3::Z)
 }
 
 /// The levelling of one panorama file, whose camera is `camera_to_world`.
