@@ -112,14 +112,7 @@ pub fn estimate_up(image: &RgbImage, config: &LevelConfig) -> Option<DVec3> {
 /// a panorama is levelled to; `None` takes it as level.
 pub fn tilted_up(image: &RgbImage, config: &LevelConfig) -> Option<DVec3> {
     estimate_up(image, config)
-        .filter(|up| rotation_angle(&leveling(*up)).to_degrees() >= config.min_tilt_deg)
-}
-
-/// The angle of rotation `r` (radians).
-pub fn rotation_angle(r: &DMat3) -> f64 {
-    ((r.x_axis.x + r.y_axis.y + r.z_axis.z - 1.0) / 2.0)
-        .clamp(-1.0, 1.0)
-        .acos()
+        .filter(|up| up.angle_between(DVec3::Z).to_degrees() >= config.min_tilt_deg)
 }
 
 /// The up direction with the most edge-plane weight through it, on a grid of tilts (`None` when the

@@ -337,8 +337,6 @@ mod tests {
         }
     }
 
-    /// A textured room under a light that is brighter and warmer around column 40 than elsewhere, with
-    /// a dark object standing in the bright patch.
     /// [`fit_light_field`] of `query` onto `empty` with the query's own clip level and the default
     /// settings.
     fn fitted_field(
@@ -358,6 +356,8 @@ mod tests {
         )
     }
 
+    /// A textured room under a light that is brighter and warmer around column 40 than elsewhere, with
+    /// a dark object standing in the bright patch.
     fn spot_scene(w: usize, h: usize) -> (RgbImage, RgbImage, impl Fn(usize, usize) -> [f32; 3]) {
         let texture = |u: usize, v: usize| {
             let t = 0.35 + 0.15 * (((u / 3 + v / 5) % 4) as f32 / 3.0);

@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::align::{AlignConfig, Alignment, Keyframe, align};
 use crate::features::FeatureMap;
-use crate::level::{LevelConfig, leveling, rotation_angle, tilted_up};
+use crate::level::{LevelConfig, leveling, tilted_up};
 use crate::shading::match_shading;
 use crate::sphere_image::SphereImage;
 use crate::stage::LocateStage;
@@ -521,6 +521,13 @@ fn judged(finished: &Finished, rounds: &[Alignment], evidence: &CameraEvidence) 
         tilt_deg: 0.0,
         seconds: [0.0; 3],
     }
+}
+
+/// The angle of rotation `r` (radians).
+fn rotation_angle(r: &DMat3) -> f64 {
+    ((r.x_axis.x + r.y_axis.y + r.z_axis.z - 1.0) / 2.0)
+        .clamp(-1.0, 1.0)
+        .acos()
 }
 
 /// The best of the finalists refined to the end, and how many were refined past the first round.
