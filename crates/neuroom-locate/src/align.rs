@@ -14,6 +14,7 @@ use neuroom_core::image::RgbImage;
 use neuroom_core::pose::Pose;
 use neuroom_panorama::plane::Plane;
 use neuroom_panorama::sphere::{direction, project_jacobian};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::features::{FeatureMap, row_weights};
@@ -84,6 +85,7 @@ pub struct Alignment {
 }
 
 /// One keyframe point with its features at the current scale.
+#[derive(Clone)]
 struct Point {
     world: DVec3,
     feature: [f32; 2],
@@ -112,6 +114,39 @@ pub fn align(
         camera_to_world: pose,
         score,
     }
+}
+
+/// The pose among `starts` whose features correlate best with the keyframe's at the finest blur of
+/// `config`, no step taken: a search over poses that Gauss–Newton would not reach from where it
+/// starts. The first of equal correlations wins; `None` when there are no starts or no blurs.
+pub fn best_start(
+    keyframe: &Keyframe,
+    query: &SphereImage,
+    starts: &[Pose],
+    config: &AlignConfig,
+) -> Option<Alignment> {
+    let sigma = *config.sigmas.last()?;
+    let valid = trusted_pixels(keyframe, config.min_normal_z);
+    let kf = config.features(FeatureMap::masked(keyframe.rgb, &valid, sigma));
+    let q = QueryMap::new(&config.features(query.features(sigma)), query.seen_plane());
+    let points = keyframe_points(keyframe, &kf, &valid);
+    let scored: Vec<Alignment> = starts
+        .par_iter()
+        .map(|pose| {
+            let score = if q.seen.is_some() {
+                correlation(&seen_from(points.clone(), &q, pose), &q, pose)
+            } else {
+                correlation(&points, &q, pose)
+            };
+            Alignment {
+                camera_to_world: *pose,
+                score,
+            }
+        })
+        .collect();
+    scored
+        .into_iter()
+        .reduce(|best, a| if a.score > best.score { a } else { best })
 }
 
 /// Query features and their image derivatives.
@@ -494,6 +529,71 @@ mod tests {
             }
         }
         assert!(r0.iter().all(|x| x.is_finite()));
+    }
+
+    /// A `w × h` panorama of a textured box room `[-2, 2] × [-1.5, 1.5] × [-1.2, 1.3]` taken at the
+    /// origin by a camera turned by `rotation`, and the ray distance of each pixel.
+    fn textured_box(w: usize, h: usize, rotation: DMat3) -> (RgbImage, Vec<f32>) {
+        let (low, high) = (DVec3::new(-2.0, -1.5, -1.2), DVec3::new(2.0, 1.5, 1.3));
+        let (data, depth) = (0..w * h)
+            .map(|i| {
+                let d = rotation * direction((i % w) as f64 + 0.5, (i / w) as f64 + 0.5, w, h);
+                let wall = DVec3::select(d.cmpgt(DVec3::ZERO), high, low);
+                let t = (wall / d)
+                    .to_array()
+                    .into_iter()
+                    .filter(|t| t.is_finite() && *t > 0.0)
+                    .fold(f64::INFINITY, f64::min);
+                let p = d * t;
+                let x =
+                    0.5 + 0.2 * ((3.0 * p.x).sin() + (4.0 * p.y).sin() + (5.0 * p.z).sin()) / 3.0;
+                ([x as f32, (0.9 * x) as f32, 0.4], t as f32)
+            })
+            .unzip();
+        (
+            RgbImage {
+                width: w as u32,
+                height: h as u32,
+                data,
+            },
+            depth,
+        )
+    }
+
+    #[test]
+    fn best_start_picks_the_tilt_the_query_was_taken_at() {
+        let (w, h) = (128, 64);
+        let (rgb, depth) = textured_box(w, h, DMat3::IDENTITY);
+        let keyframe = Keyframe {
+            rgb: &rgb,
+            depth: &depth,
+            camera_to_world: Pose::IDENTITY,
+        };
+        let tilt =
+            DMat3::from_rotation_x(3f64.to_radians()) * DMat3::from_rotation_y(-2f64.to_radians());
+        let query = SphereImage::panorama(textured_box(w, h, tilt).0);
+        let starts: Vec<Pose> = (-3..=3)
+            .flat_map(|a| (-3..=3).map(move |b| (a, b)))
+            .map(|(a, b): (i32, i32)| {
+                let turn = DMat3::from_rotation_x(f64::from(a).to_radians())
+                    * DMat3::from_rotation_y(f64::from(b).to_radians());
+                Pose::new(turn, DVec3::ZERO)
+            })
+            .collect();
+        let config = AlignConfig {
+            upright: false,
+            ..AlignConfig::default()
+        };
+        let best = best_start(&keyframe, &query, &starts, &config).unwrap();
+        let error = glam::DQuat::from_mat3(&(best.camera_to_world.rotation.transpose() * tilt))
+            .to_axis_angle()
+            .1;
+        assert!(
+            error.to_degrees() < 0.5,
+            "{:.2}° from the query's tilt",
+            error.to_degrees()
+        );
+        assert!(best_start(&keyframe, &query, &[], &config).is_none());
     }
 
     #[test]

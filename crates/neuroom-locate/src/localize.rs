@@ -27,7 +27,7 @@ use neuroom_render::{RenderConfig, Scene, render_image};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::align::{AlignConfig, Alignment, Keyframe, align};
+use crate::align::{AlignConfig, Alignment, Keyframe, align, best_start};
 use crate::features::FeatureMap;
 use crate::level::{LevelConfig, leveling, tilted_up};
 use crate::shading::match_shading;
@@ -90,6 +90,57 @@ pub struct LocalizeConfig {
     /// them fell (docs/experiment-log.md).
     #[serde(default)]
     pub restart_offset: f64,
+    /// Tilts tried before each rendered round in six degrees of freedom ([`TiltGrid`]); none by
+    /// default: on the validation suite the grid brought some tilted cameras nearer and lost others
+    /// (docs/experiment-log.md).
+    #[serde(default)]
+    pub tilt_grid: TiltGrid,
+}
+
+/// Tilts tried before each rendered round that aligns in six degrees of freedom: the round starts
+/// from the one whose features correlate best with the keyframe. Gauss–Newton on blurred features
+/// does not turn a camera whose tilt is off by more than its finest blur reaches (a levelling from
+/// straight edges can be off by a few degrees, and a tilt moves the horizon by about its angle in
+/// pixels times width / 360), and a light's edges can hold it there; a grid over the two tilt
+/// angles needs no gradient. The grid is in degrees because the error it corrects is an angle,
+/// whatever the room or the resolution.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TiltGrid {
+    /// Spacing of the grid (degrees).
+    pub step_deg: f64,
+    /// Steps to each side about each horizontal axis: `(2 · steps + 1)²` tilts, the start's among
+    /// them; 0 tries none.
+    pub steps: usize,
+}
+
+impl Default for TiltGrid {
+    /// No grid: 0 steps (1° apart when some are asked for).
+    fn default() -> Self {
+        Self {
+            step_deg: 1.0,
+            steps: 0,
+        }
+    }
+}
+
+impl TiltGrid {
+    /// The grid's tilts about `at`'s centre (turns about the world's two horizontal axes), `at`
+    /// itself first.
+    fn around(&self, at: &Pose) -> Vec<Pose> {
+        let steps = self.steps as i32;
+        let mut tilts = vec![*at];
+        for a in -steps..=steps {
+            for b in -steps..=steps {
+                if (a, b) == (0, 0) {
+                    continue;
+                }
+                let turn = DMat3::from_rotation_x((f64::from(a) * self.step_deg).to_radians())
+                    * DMat3::from_rotation_y((f64::from(b) * self.step_deg).to_radians());
+                tilts.push(Pose::new(turn * at.rotation, at.translation));
+            }
+        }
+        tilts
+    }
 }
 
 /// The search again, wider, for a camera that correlates no better than [`CameraEvidence::weak`]
@@ -215,6 +266,7 @@ impl Default for LocalizeConfig {
             level: default_level(),
             lost_search: LostSearch::default(),
             restart_offset: 0.0,
+            tilt_grid: TiltGrid::default(),
         }
     }
 }
@@ -764,7 +816,12 @@ fn refine<F: Field>(
         current = if config.reshade {
             relit_round(&view, config)
         } else {
-            view.no_worse(view.align(view.rgb, &at, &config.fine), &[view.rgb], config)
+            let start = view.start(config);
+            view.no_worse(
+                view.align(view.rgb, &start, &config.fine),
+                &[view.rgb],
+                config,
+            )
         };
     }
     current
@@ -787,6 +844,22 @@ impl Rendered<'_> {
             camera_to_world: self.at,
         };
         align(&keyframe, self.query, start, config)
+    }
+
+    /// Where the round's alignments start: the keyframe's own pose, or, when they free the tilt, the
+    /// tilt about it ([`TiltGrid`]) that correlates best with the keyframe as rendered.
+    fn start(&self, config: &LocalizeConfig) -> Pose {
+        if config.fine.upright || config.tilt_grid.steps == 0 {
+            return self.at;
+        }
+        let keyframe = Keyframe {
+            rgb: self.rgb,
+            depth: self.depth,
+            camera_to_world: self.at,
+        };
+        let tilts = config.tilt_grid.around(&self.at);
+        best_start(&keyframe, self.query, &tilts, &config.fine)
+            .map_or(self.at, |best| best.camera_to_world)
     }
 
     /// `aligned`, or the keyframe's own pose when that correlates better with one of the keyframe's
@@ -828,16 +901,29 @@ fn relit_round(view: &Rendered, config: &LocalizeConfig) -> Alignment {
         view.rgb,
         &view.query.seen_depth(view.depth),
     );
-    if shaded == *view.rgb {
-        return view.no_worse(
-            view.align(view.rgb, &view.at, &config.fine),
-            &[view.rgb],
-            config,
-        );
+    let aligned = aligned_from(view, &shaded, &view.start(config), config);
+    let colourings: &[&RgbImage] = if shaded == *view.rgb {
+        &[view.rgb]
+    } else {
+        &[view.rgb, &shaded]
+    };
+    view.no_worse(aligned, colourings, config)
+}
+
+/// The round's alignment from `start`: to the plain keyframe alone when `shaded` is the same, else to
+/// both, the pose the one whose edges agree better with the plain keyframe, the score the better one.
+fn aligned_from(
+    view: &Rendered,
+    shaded: &RgbImage,
+    start: &Pose,
+    config: &LocalizeConfig,
+) -> Alignment {
+    if shaded == view.rgb {
+        return view.align(view.rgb, start, &config.fine);
     }
     let (plain, relit) = rayon::join(
-        || view.align(view.rgb, &view.at, &config.fine),
-        || view.align(&shaded, &view.at, &config.fine),
+        || view.align(view.rgb, start, &config.fine),
+        || view.align(shaded, start, &config.fine),
     );
     let judge = AlignConfig {
         iterations: 0,
@@ -851,11 +937,10 @@ fn relit_round(view: &Rendered, config: &LocalizeConfig) -> Alignment {
     } else {
         plain.camera_to_world
     };
-    let aligned = Alignment {
+    Alignment {
         camera_to_world: pose,
         score: relit.score.max(plain.score),
-    };
-    view.no_worse(aligned, &[view.rgb, &shaded], config)
+    }
 }
 
 /// Colour and ray depth of `scene` (the empty room: a scene without objects) seen from `camera_to_world`
@@ -1014,6 +1099,32 @@ mod tests {
             vec![0.30],
             "place 2 is judged against the kept place"
         );
+    }
+
+    #[test]
+    fn the_tilt_grid_turns_about_the_horizontal_axes_only() {
+        let at = Pose::from_yaw_translation(0.7, DVec3::new(1.0, 2.0, 1.5));
+        let grid = TiltGrid {
+            step_deg: 1.5,
+            steps: 2,
+        };
+        let tilts = grid.around(&at);
+        assert_eq!(tilts.len(), 25);
+        assert_eq!(tilts[0], at);
+        let mut ups: Vec<DVec3> = Vec::new();
+        for t in &tilts {
+            assert_eq!(t.translation, at.translation);
+            let up = t.rotation * DVec3::Z;
+            let tilt = up.angle_between(DVec3::Z).to_degrees();
+            assert!(tilt < 1.5 * 2.0 * 2f64.sqrt() + 1e-9, "{tilt}");
+            assert!(
+                ups.iter()
+                    .all(|u| u.angle_between(up) > 1.0f64.to_radians())
+            );
+            ups.push(up);
+        }
+        let none = TiltGrid { steps: 0, ..grid };
+        assert_eq!(none.around(&at), vec![at]);
     }
 
     #[test]
