@@ -103,10 +103,8 @@ pub fn align(
     let mut pose = *init;
     let mut score = 0.0;
     for &sigma in &config.sigmas {
-        let valid = trusted_pixels(keyframe, config.min_normal_z);
-        let kf = config.features(FeatureMap::masked(keyframe.rgb, &valid, sigma));
-        let q = QueryMap::new(&config.features(query.features(sigma)), query.seen_plane());
-        let points = seen_from(keyframe_points(keyframe, &kf, &valid), &q, &pose);
+        let (points, q) = at_scale(keyframe, query, sigma, config);
+        let points = seen_from(points, &q, &pose);
         pose = solve_scale(&points, &q, pose, config);
         score = correlation(&points, &q, &pose);
     }
@@ -125,11 +123,7 @@ pub fn best_start(
     starts: &[Pose],
     config: &AlignConfig,
 ) -> Option<Alignment> {
-    let sigma = *config.sigmas.last()?;
-    let valid = trusted_pixels(keyframe, config.min_normal_z);
-    let kf = config.features(FeatureMap::masked(keyframe.rgb, &valid, sigma));
-    let q = QueryMap::new(&config.features(query.features(sigma)), query.seen_plane());
-    let points = keyframe_points(keyframe, &kf, &valid);
+    let (points, q) = at_scale(keyframe, query, *config.sigmas.last()?, config);
     let scored: Vec<Alignment> = starts
         .par_iter()
         .map(|pose| {
@@ -147,6 +141,20 @@ pub fn best_start(
     scored
         .into_iter()
         .reduce(|best, a| if a.score > best.score { a } else { best })
+}
+
+/// The keyframe's trusted points and the query's features at blur `sigma`, as [`align`] compares
+/// them.
+fn at_scale(
+    keyframe: &Keyframe,
+    query: &SphereImage,
+    sigma: f32,
+    config: &AlignConfig,
+) -> (Vec<Point>, QueryMap) {
+    let valid = trusted_pixels(keyframe, config.min_normal_z);
+    let kf = config.features(FeatureMap::masked(keyframe.rgb, &valid, sigma));
+    let q = QueryMap::new(&config.features(query.features(sigma)), query.seen_plane());
+    (keyframe_points(keyframe, &kf, &valid), q)
 }
 
 /// Query features and their image derivatives.

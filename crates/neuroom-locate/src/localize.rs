@@ -901,26 +901,23 @@ fn relit_round(view: &Rendered, config: &LocalizeConfig) -> Alignment {
         view.rgb,
         &view.query.seen_depth(view.depth),
     );
-    let aligned = aligned_from(view, &shaded, &view.start(config), config);
-    let colourings: &[&RgbImage] = if shaded == *view.rgb {
-        &[view.rgb]
-    } else {
-        &[view.rgb, &shaded]
-    };
-    view.no_worse(aligned, colourings, config)
+    let start = view.start(config);
+    if shaded == *view.rgb {
+        let aligned = view.align(view.rgb, &start, &config.fine);
+        return view.no_worse(aligned, &[view.rgb], config);
+    }
+    let aligned = aligned_to_both(view, &shaded, &start, config);
+    view.no_worse(aligned, &[view.rgb, &shaded], config)
 }
 
-/// The round's alignment from `start`: to the plain keyframe alone when `shaded` is the same, else to
-/// both, the pose the one whose edges agree better with the plain keyframe, the score the better one.
-fn aligned_from(
+/// The round's alignment from `start` to the plain and the re-shaded keyframe: the pose the one whose
+/// edges agree better with the plain keyframe, the score the better one.
+fn aligned_to_both(
     view: &Rendered,
     shaded: &RgbImage,
     start: &Pose,
     config: &LocalizeConfig,
 ) -> Alignment {
-    if shaded == view.rgb {
-        return view.align(view.rgb, start, &config.fine);
-    }
     let (plain, relit) = rayon::join(
         || view.align(view.rgb, start, &config.fine),
         || view.align(shaded, start, &config.fine),
