@@ -78,7 +78,7 @@ pub struct LocalizeConfig {
     /// refine the camera in all six degrees of freedom; `None`: the camera is taken to be level.
     #[serde(default = "default_level")]
     pub level: Option<LevelConfig>,
-    /// The wider search for a camera whose evidence is nil ([`CameraEvidence::weak`]).
+    /// The wider search for a camera that would be said lost ([`CameraEvidence::says_lost`]).
     #[serde(default)]
     pub lost_search: LostSearch,
     /// When the found camera's evidence is not strong ([`CameraEvidence::strong`]), the rounds after
@@ -143,12 +143,16 @@ impl TiltGrid {
     }
 }
 
-/// The search again, wider, for a camera that correlates no better than [`CameraEvidence::weak`]
-/// with the empty room: under a light the captures never saw, the true place can rank below the
-/// heading search's first candidates, and the rendered rounds then refine only wrong places (on the
-/// validation suite the true cameras of such panoramas correlate 0.27–0.50 where the ones found
-/// correlate below 0.2). Every finalist of the wider search is refined as a fallback is, unless one
-/// reaches the strong evidence first. It costs time only where the camera would otherwise be lost.
+/// The search again, wider, for a camera that would be said lost ([`CameraEvidence::says_lost`]):
+/// under a light the captures never saw, the true place can rank below the heading search's first
+/// candidates, and the rendered rounds then refine only wrong places. The trigger is the camera's
+/// confidence, not its correlation alone: a wrong place can correlate a little above
+/// [`CameraEvidence::weak`] with the room's few edges that line up, and it is then said lost for
+/// being weak or ambiguous all the same; the search that would find the camera must run wherever
+/// the camera would be reported lost, or the report is its only outcome. Every finalist of the
+/// wider search is refined as a fallback is, unless one reaches the strong evidence first, and the
+/// camera that correlates better is kept, so a camera already right stays. It costs time only
+/// where the camera would otherwise be said lost.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LostSearch {
     /// Candidates of each heading search ([`LocalizeConfig::candidates`]).
@@ -167,6 +171,12 @@ impl Default for LostSearch {
 }
 
 impl LostSearch {
+    /// Whether this search runs for the camera `found` with `config`: the camera would be said
+    /// lost, and this search is wider than the one that found it.
+    fn wanted(&self, found: &CameraEstimate, config: &LocalizeConfig) -> bool {
+        config.evidence.says_lost(found.confidence) && self.finalists > config.finalists
+    }
+
     /// `config` widened to this search.
     fn widened(&self, config: &LocalizeConfig) -> LocalizeConfig {
         LocalizeConfig {
@@ -220,6 +230,11 @@ impl Default for CameraEvidence {
 }
 
 impl CameraEvidence {
+    /// Whether a camera of this `confidence` is reported as not found reliably.
+    pub fn says_lost(&self, confidence: f64) -> bool {
+        confidence < self.lost_below
+    }
+
     /// The confidence in [0, 1] of a camera whose final correlation is `score`, with the best
     /// first-round correlation `first` and the best first-round correlation of another place
     /// `other` (if any).
@@ -324,8 +339,8 @@ impl CameraEstimate {
 /// ([`CameraEvidence::strong`], as for [`LocalizeConfig::fallbacks`]), the panorama is located as
 /// taken too and the camera that correlates better with the empty room is kept; the final correlation
 /// is measured against the panorama as taken in both cases, so it judges the two on the same evidence.
-/// A camera whose evidence is then nil ([`CameraEvidence::weak`]) is searched for again, wider
-/// ([`LostSearch`]), under the tilt hypothesis that won. `progress` is told each search as it starts
+/// A camera that would then be said lost ([`CameraEvidence::says_lost`]) is searched for again,
+/// wider ([`LostSearch`]), under the tilt hypothesis that won. `progress` is told each search as it starts
 /// ([`LocateStage::Camera`], then [`LocateStage::CameraAsTaken`] and [`LocateStage::CameraWider`]
 /// when they run).
 pub fn localize<F: Field>(
@@ -356,9 +371,7 @@ pub fn localize<F: Field>(
             }
         }
     };
-    if kept.estimate.score >= config.evidence.weak
-        || config.lost_search.finalists <= config.finalists
-    {
+    if !config.lost_search.wanted(&kept.estimate, config) {
         return Ok(kept.estimate);
     }
     let widened = locate(
@@ -546,7 +559,7 @@ fn judged(finished: &Finished, rounds: &[Alignment], evidence: &CameraEvidence) 
         .find(|a| !same_place(a, &best, evidence.other_place))
         .map(|a| a.score);
     let confidence = evidence.confidence(best.score, finished.first_round, other);
-    let warning = (confidence < evidence.lost_below).then(|| {
+    let warning = evidence.says_lost(confidence).then(|| {
         let rival = other.map_or(String::new(), |o| {
             format!(
                 ", another place correlates {o:.2} against {:.2}",
@@ -1122,6 +1135,39 @@ mod tests {
         }
         let none = TiltGrid { steps: 0, ..grid };
         assert_eq!(none.around(&at), vec![at]);
+    }
+
+    /// The judged estimate of a camera at the origin that correlates `score`, with another place
+    /// 3 m away that correlated `other` in the first round, if any.
+    fn estimate_judged(score: f64, other: Option<f64>) -> CameraEstimate {
+        let mut rounds = vec![finalist(0.0, score)];
+        rounds.extend(other.map(|o| finalist(3.0, o)));
+        judged(
+            &finished_at_origin(score),
+            &rounds,
+            &CameraEvidence::default(),
+        )
+    }
+
+    #[test]
+    fn a_camera_said_lost_gets_the_wider_search_even_above_weak() {
+        let config = LocalizeConfig::default();
+        let lost = &config.lost_search;
+        // Above `weak`, but another place correlates as well: said lost, so searched again.
+        let ambiguous = estimate_judged(0.3, Some(0.3));
+        assert!(ambiguous.score > config.evidence.weak);
+        assert!(ambiguous.warning.is_some());
+        assert!(lost.wanted(&ambiguous, &config));
+        // Strong and distinct: neither said lost nor searched again.
+        let sure = estimate_judged(0.6, Some(0.3));
+        assert!(sure.warning.is_none());
+        assert!(!lost.wanted(&sure, &config));
+        // A search no wider than the first one is not run again.
+        let narrow = LostSearch {
+            finalists: config.finalists,
+            ..LostSearch::default()
+        };
+        assert!(!narrow.wanted(&ambiguous, &config));
     }
 
     #[test]

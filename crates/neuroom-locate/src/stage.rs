@@ -3,7 +3,8 @@
 
 /// A stage of locating one image. The planned ones run in the order of [`LocateStage::PLANNED`]; the
 /// camera's second and third searches ([`LocateStage::CameraAsTaken`], [`LocateStage::CameraWider`])
-/// run only when the first finds weak evidence, and stand where [`LocateStage::Camera`] stands.
+/// run only when the first finds weak evidence (the wider one only when the camera would be said
+/// lost), and stand where [`LocateStage::Camera`] stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LocateStage {
     /// The camera, searched for under the tilt the panorama's edges show.
