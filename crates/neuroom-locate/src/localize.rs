@@ -340,9 +340,9 @@ impl CameraEstimate {
 /// taken too and the camera that correlates better with the empty room is kept; the final correlation
 /// is measured against the panorama as taken in both cases, so it judges the two on the same evidence.
 /// A camera that would then be said lost ([`CameraEvidence::says_lost`]) is searched for again,
-/// wider ([`LostSearch`]), under the tilt hypothesis that won. `progress` is told each search as it starts
-/// ([`LocateStage::Camera`], then [`LocateStage::CameraAsTaken`] and [`LocateStage::CameraWider`]
-/// when they run).
+/// wider ([`LostSearch`]), under the tilt hypothesis that won. `progress` is told each search as it
+/// starts ([`LocateStage::Camera`], then [`LocateStage::CameraAsTaken`] and
+/// [`LocateStage::CameraWider`] when they run).
 pub fn localize<F: Field>(
     scene: &Scene<F>,
     db: &Database,
