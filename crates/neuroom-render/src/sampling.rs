@@ -59,6 +59,32 @@ pub fn depth_guided_shell(near: f32, far: f32, depth: f32, half_width: f32) -> O
     (b > a).then_some((a, b))
 }
 
+/// Where SDF values taken at evenly spaced points along a ray first cross from outside (positive) to
+/// inside (zero or negative).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crossing {
+    /// Index of the last value outside.
+    pub before: usize,
+    /// Where the zero lies between that value and the next, in `(0, 1]` (linear interpolation).
+    pub fraction: f32,
+}
+
+impl Crossing {
+    /// The first crossing of `sdf`, or `None` when it never goes from outside to inside.
+    pub fn first(sdf: &[f32]) -> Option<Self> {
+        let j = sdf.windows(2).position(|w| w[0] > 0.0 && w[1] <= 0.0)?;
+        Some(Self {
+            before: j,
+            fraction: sdf[j] / (sdf[j] - sdf[j + 1]),
+        })
+    }
+
+    /// The crossing as a fractional index into the values.
+    pub fn at(&self) -> f32 {
+        self.before as f32 + self.fraction
+    }
+}
+
 /// Hierarchical resampling: `n` new depths drawn from the piecewise-constant density whose interval
 /// `[t_i, t_{i+1}]` has mass `weights[i] + 1e-5` (the small floor keeps empty rays sampled), by inverse CDF.
 /// Returns them sorted in `out`; merge them with `t` via [`merge_sorted`].
@@ -134,6 +160,20 @@ pub fn merge_by_t(lists: &[&[f32]], out: &mut Vec<(f32, usize, usize)>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The first change from outside to inside, interpolated; a ray that starts inside or never
+    /// enters has none.
+    #[test]
+    fn the_first_crossing_is_the_first_entry_from_outside() {
+        let c = Crossing::first(&[0.3, 0.1, -0.1, 0.2, -0.4]).unwrap();
+        assert_eq!(c.before, 1);
+        assert!((c.at() - 1.5).abs() < 1e-6, "{c:?}");
+        let touching = Crossing::first(&[0.2, 0.0, 0.1]).unwrap();
+        assert_eq!((touching.before, touching.fraction), (0, 1.0));
+        assert_eq!(Crossing::first(&[-0.1, -0.2, 0.3]), None);
+        assert_eq!(Crossing::first(&[0.4, 0.2, 0.1]), None);
+        assert_eq!(Crossing::first(&[0.4]), None);
+    }
 
     /// `depth_guided` writes and draws `n_shell` more samples exactly when `depth_guided_shell` finds
     /// a shell, for shells inside, across and outside `[near, far]`.

@@ -138,6 +138,41 @@ pub struct TrainConfig {
     /// uniform, as above.
     #[serde(default, skip_serializing_if = "RayChoice::is_uniform")]
     pub ray_choice: RayChoice,
+    /// Where a surface ray that has no observed depth (a phone's dropped edge samples, a hole) is
+    /// sampled. Left out while the default, as above: captures with depth on every surface ray train
+    /// the same bits whatever it is.
+    #[serde(default, skip_serializing_if = "UnobservedSamples::is_default")]
+    pub unobserved_samples: UnobservedSamples,
+}
+
+/// How the samples of a surface ray without observed depth are placed.
+///
+/// Spread evenly over the ray (the default), a few samples centimetres apart rarely land inside a
+/// thin part (a stool's leg, a rim), and to render the mask's opacity the field grows until they do.
+/// The other way probes the ray's SDF at evenly spaced points first and puts its shell where the
+/// model's current surface crosses it (the first sign change of the SDF, or where the SDF is least
+/// when none does), as NeuS's up-sampling and instant-ngp's occupancy grid put samples where the
+/// model has its surface. The model's surface only guides the samples; it is never a depth target.
+/// It also gives whatever surface the model has in front (its starting box, a floater) the samples
+/// that keep it there: it made a phone-captured stool thinner and a depthless synthetic table
+/// fatter (experiment log, 2026-12-07), so it is an option.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum UnobservedSamples {
+    /// Stratified over the whole ray.
+    #[default]
+    Stratified,
+    /// A shell around the model's surface, found by this many SDF probes along the ray.
+    ModelSurface {
+        /// Evenly spaced SDF evaluations along the ray.
+        probes: usize,
+    },
+}
+
+impl UnobservedSamples {
+    /// Whether this is the default (then it is not serialised).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
 }
 
 /// Which frame corrections a model learns.
@@ -165,18 +200,27 @@ pub struct FrameRefinement {
     /// first learns the frames' disagreement as blur and the poses start from that; moved from the
     /// start at a low rate, they settle with the surfaces.
     pub pose_start: f32,
+    /// Whether the rays that miss the object (their opacity and free-space terms) move the poses
+    /// too: a frame's silhouette, what aligns it where its depth is sparse.
+    #[serde(default = "silhouettes_by_default")]
+    pub silhouettes: bool,
+}
+
+fn silhouettes_by_default() -> bool {
+    true
 }
 
 impl Default for FrameRefinement {
     /// Poses at 3e-4 (0.3 mm or 0.3 mrad per step at most: a tracker's centimetres are crossed in a
     /// hundred steps, and the steps' own jitter stays well below the error corrected), gains at 5e-3,
-    /// poses from the first step.
+    /// poses from the first step, moved by the silhouettes as well.
     fn default() -> Self {
         Self {
             when: RefineWhen::FromCapture,
             pose_lr: 3e-4,
             gain_lr: 5e-3,
             pose_start: 0.0,
+            silhouettes: true,
         }
     }
 }
@@ -265,6 +309,7 @@ impl Default for TrainConfig {
             frame_refinement: FrameRefinement::default(),
             mlp_precision: Precision::F32,
             ray_choice: RayChoice::default(),
+            unobserved_samples: UnobservedSamples::default(),
         }
     }
 }

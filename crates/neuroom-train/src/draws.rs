@@ -9,7 +9,7 @@ use crate::dataset::Rays;
 use crate::losses::{RayTarget, SampleZone, sample_zone};
 use crate::rng::Pcg32;
 use glam::Vec3;
-use neuroom_render::sampling::{depth_guided, depth_guided_shell, stratified};
+use neuroom_render::sampling::{Crossing, depth_guided, depth_guided_shell, stratified};
 use rayon::prelude::*;
 
 /// Rays per parallel task of [`write_samples`].
@@ -32,6 +32,9 @@ pub(crate) struct RayPlan {
     pub far: f32,
     /// Observed distance to the surface, when the capture has depth there.
     pub distance: Option<f32>,
+    /// Where the model's current surface crosses a surface ray without observed depth, found by
+    /// probing its SDF ([`crate::config::UnobservedSamples`]): the ray's samples gather there.
+    pub model_surface: Option<f32>,
     /// Half-width of the depth-guided shell.
     pub shell: f32,
     /// Depth noise spread at the ray's distance (0 for exact depth).
@@ -81,9 +84,15 @@ impl SampleCounts {
 }
 
 impl RayPlan {
-    /// The observed distance the samples are guided by: an empty ray's is not.
-    fn guide(&self) -> Option<f32> {
+    /// The observed distance: an empty ray has none.
+    fn observed(&self) -> Option<f32> {
         self.distance.filter(|_| !self.empty)
+    }
+
+    /// The distance the samples gather around: the observed one, else the model's surface.
+    fn guide(&self) -> Option<f32> {
+        self.observed()
+            .or(self.model_surface.filter(|_| !self.empty))
     }
 
     /// The ray's sample depths, drawn from its own copy of the step's generator.
@@ -122,7 +131,7 @@ impl RayPlan {
         };
         RayTarget {
             rgb: (!self.empty).then_some(rgb),
-            distance: self.guide(),
+            distance: self.observed(),
             opacity: if self.empty { 0.0 } else { 1.0 },
         }
     }
@@ -199,4 +208,48 @@ pub(crate) fn write_samples(
             }
         }
     });
+}
+
+/// The distances along `[near, far]` at which a ray's SDF is probed: the midpoints of `probes` equal
+/// parts ([`crate::config::UnobservedSamples::ModelSurface`]).
+pub(crate) fn probe_distances(near: f32, far: f32, probes: usize) -> impl Iterator<Item = f32> {
+    let step = (far - near) / probes as f32;
+    (0..probes).map(move |k| near + (k as f32 + 0.5) * step)
+}
+
+/// Where the model's surface lies along `[near, far]` from its SDF at [`probe_distances`]: the first
+/// crossing from outside to inside, else the probe of least SDF (where the surface the mask says
+/// is there is nearest).
+pub(crate) fn surface_from_probes(near: f32, far: f32, sdf: &[f32]) -> f32 {
+    let at = Crossing::first(sdf).map_or_else(
+        || {
+            let least = (0..sdf.len()).fold(0, |best, k| if sdf[k] < sdf[best] { k } else { best });
+            least as f32
+        },
+        |c| c.at(),
+    );
+    near + (at + 0.5) * (far - near) / sdf.len() as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The probes of a plane at 1.23 m find it between them; probes that never cross point at the
+    /// nearest approach.
+    #[test]
+    fn probes_find_the_models_surface_along_a_ray() {
+        let (near, far) = (0.5, 2.5);
+        let plane: Vec<f32> = probe_distances(near, far, 32).map(|t| 1.23 - t).collect();
+        let found = surface_from_probes(near, far, &plane);
+        assert!((found - 1.23).abs() < 1e-4, "{found}");
+        let passing: Vec<f32> = probe_distances(near, far, 32)
+            .map(|t| 0.05 + (t - 1.8).abs())
+            .collect();
+        let nearest = surface_from_probes(near, far, &passing);
+        assert!(
+            (nearest - 1.8).abs() <= 0.5 * (far - near) / 32.0,
+            "{nearest}"
+        );
+    }
 }

@@ -16,7 +16,7 @@ use neuroom_core::mesh::TriMesh;
 use neuroom_core::stats::upper_median_by;
 use neuroom_core::surface::{Grid, extract_surface};
 use neuroom_field::{CodeSet, Codes, NeusField, Outputs, Tape};
-use neuroom_render::sampling::uniform;
+use neuroom_render::sampling::{Crossing, uniform};
 use neuroom_render::volume::{RayTape, render_ray};
 use serde::{Deserialize, Serialize};
 
@@ -231,11 +231,12 @@ impl RaySearch {
         let from = self.sdf.len().saturating_sub(1);
         self.sdf.extend_from_slice(values);
         let s = &self.sdf;
-        let j = (from..s.len() - 1).find(|&j| s[j] > 0.0 && s[j + 1] <= 0.0)?;
+        let crossing = Crossing::first(&s[from..])?;
+        let j = from + crossing.before;
         Some(Hit {
             pixel: self.pixel,
             dir: self.dir,
-            t: self.near + self.step * (j as f32 + s[j] / (s[j] - s[j + 1])),
+            t: self.near + self.step * (j as f32 + crossing.fraction),
             slope: (s[j] - s[j + 1]) / self.step,
         })
     }

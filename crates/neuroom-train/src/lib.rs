@@ -29,7 +29,7 @@ pub mod room;
 pub mod symmetry;
 pub mod trainer;
 
-pub use config::{BudgetClock, ModelBudget, ObjectStart, TrainConfig};
+pub use config::{BudgetClock, ModelBudget, ObjectStart, TrainConfig, UnobservedSamples};
 pub use reuse::TRAINING_REVISION;
 pub use room::{
     MANIFEST_FILE, Manifest, ModelEntry, RoomModels, TrainError, TrainSummary, load_room_models,

@@ -12,9 +12,13 @@
 //! the generator, Adam's moments and the fitted step count, and resuming continues bit for bit.
 
 use crate::augment::Augmentation;
-use crate::config::{BudgetClock, ModelBudget, ObjectStart, RefineWhen, START_INSET, TrainConfig};
+use crate::config::{
+    BudgetClock, ModelBudget, ObjectStart, RefineWhen, START_INSET, TrainConfig, UnobservedSamples,
+};
 use crate::dataset::{Aabb, Dataset};
-use crate::draws::{RayPlan, SampleCounts, SampleRows, write_samples};
+use crate::draws::{
+    RayPlan, SampleCounts, SampleRows, probe_distances, surface_from_probes, write_samples,
+};
 use crate::frame_corrections::{Corrected, FrameCorrections};
 use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sdf_loss};
 use crate::progress::Progress;
@@ -196,6 +200,8 @@ pub struct Trainer<'a> {
     tape: Tape<f32>,
     empty_tape: Tape<f32>,
     eikonal_tape: Tape<f32>,
+    /// Tape of the SDF probes along rays without observed depth.
+    probe_tape: Tape<f32>,
 }
 
 impl<'a> Trainer<'a> {
@@ -366,6 +372,7 @@ impl<'a> Trainer<'a> {
             tape: Tape::default(),
             empty_tape: Tape::default(),
             eikonal_tape: Tape::default(),
+            probe_tape: Tape::default(),
         }
     }
 
@@ -447,9 +454,16 @@ impl<'a> Trainer<'a> {
         parts
     }
 
-    /// Field forward pass of the batch: full outputs for the surface rays' samples, SDF only for the
-    /// empty rays' (their colour is never used).
+    /// Field forward pass of the batch: full outputs for the surface rays' samples, the SDF (and its
+    /// gradient while poses move) for the empty rays' (their colour is never used).
     fn forward(&mut self) {
+        // With moving poses the empty rays' samples need the SDF's gradient too: their position
+        // gradients are what turns a frame's silhouette into its pose correction.
+        let empty_outputs = if self.silhouettes_move_poses() {
+            Outputs::SdfGradient
+        } else {
+            Outputs::Sdf
+        };
         let b = &mut self.batch;
         let (n, f) = (b.points.len(), b.full);
         let codes = CodeSet {
@@ -473,7 +487,7 @@ impl<'a> Trainer<'a> {
             &b.points[f..],
             &[],
             &codes.slice(f, n),
-            Outputs::Sdf,
+            empty_outputs,
             &mut self.empty_tape,
         );
         self.empty_tape.copy_sdf(&mut b.sdf[f..]);
@@ -483,6 +497,7 @@ impl<'a> Trainer<'a> {
     /// gradient of every frame's pose correction.
     fn backward(&mut self, d_inv_s: f32) {
         let poses_move = self.poses_move();
+        let silhouettes = self.silhouettes_move_poses();
         let b = &mut self.batch;
         let (n, f) = (b.points.len(), b.full);
         let codes = CodeSet {
@@ -493,7 +508,7 @@ impl<'a> Trainer<'a> {
         let grads = &mut self.grads;
         b.d_points.clear();
         if poses_move {
-            b.d_points.resize(f, [0.0; 3]);
+            b.d_points.resize(if silhouettes { n } else { f }, [0.0; 3]);
         }
         self.field.backward(
             &codes.slice(0, f),
@@ -501,7 +516,7 @@ impl<'a> Trainer<'a> {
             &b.d_sdf[..f],
             Some(&b.d_rgb[..3 * f]),
             grads,
-            poses_move.then_some(&mut b.d_points[..]),
+            poses_move.then(|| &mut b.d_points[..f]),
         );
         self.field.backward(
             &codes.slice(f, n),
@@ -509,7 +524,7 @@ impl<'a> Trainer<'a> {
             &b.d_sdf[f..],
             None,
             grads,
-            None,
+            silhouettes.then(|| &mut b.d_points[f..]),
         );
         self.field.backward_inv_s(d_inv_s, grads);
         if let Some(frames) = self.frames.as_mut().filter(|_| poses_move) {
@@ -526,6 +541,12 @@ impl<'a> Trainer<'a> {
         self.frames.as_ref().is_some_and(|f| f.corrected.pose)
             && refine.pose_lr > 0.0
             && self.state.step >= start
+    }
+
+    /// Whether the empty rays' samples move the poses at this step
+    /// ([`crate::config::FrameRefinement::silhouettes`]).
+    fn silhouettes_move_poses(&self) -> bool {
+        self.poses_move() && self.config.frame_refinement.silhouettes
     }
 
     fn schedule(&self) -> Schedule {
@@ -556,7 +577,8 @@ impl<'a> Trainer<'a> {
 
     /// Draws the rays of a step and their samples, points, codes and targets.
     fn draw_batch(&mut self) {
-        let plans = self.plan_rays();
+        let mut plans = self.plan_rays();
+        self.find_model_surfaces(&mut plans);
         let (counts, band) = (self.sample_counts(), self.budget.sdf_band * self.diag);
         let b = &mut self.batch;
         b.offsets.clear();
@@ -602,6 +624,40 @@ impl<'a> Trainer<'a> {
         }
         b.d_sdf.resize(n, 0.0);
         b.d_rgb.resize(3 * n, 0.0);
+    }
+
+    /// Where the model's current surface crosses each surface ray that has no observed depth
+    /// ([`UnobservedSamples::ModelSurface`]): one SDF-only pass over evenly spaced probes
+    /// ([`surface_from_probes`]). The ray's shell is at least half the probes' spacing wide, so it
+    /// covers the crossing the probes bracket. The probes draw no random numbers, so the step's
+    /// stream is the same with them or without.
+    fn find_model_surfaces(&mut self, plans: &mut [RayPlan]) {
+        let UnobservedSamples::ModelSurface { probes } = self.config.unobserved_samples else {
+            return;
+        };
+        let probes = probes.max(2);
+        let unobserved: Vec<usize> = (0..plans.len())
+            .filter(|&i| !plans[i].empty && plans[i].distance.is_none())
+            .collect();
+        if unobserved.is_empty() {
+            return;
+        }
+        let mut points = Vec::with_capacity(unobserved.len() * probes);
+        for p in unobserved.iter().map(|&i| &plans[i]) {
+            points.extend(
+                probe_distances(p.near, p.far, probes).map(|t| (p.origin + t * p.dir).to_array()),
+            );
+        }
+        let tape = &mut self.probe_tape;
+        self.field
+            .forward(&points, &[], &CodeSet::default(), Outputs::Sdf, tape);
+        let mut sdf = vec![0.0; points.len()];
+        tape.copy_sdf(&mut sdf);
+        for (&i, values) in unobserved.iter().zip(sdf.chunks_exact(probes)) {
+            let p = &mut plans[i];
+            p.model_surface = Some(surface_from_probes(p.near, p.far, values));
+            p.shell = p.shell.max(0.5 * (p.far - p.near) / probes as f32);
+        }
     }
 
     /// Samples per ray of this model's budget.
@@ -703,6 +759,7 @@ impl<'a> Trainer<'a> {
                 near,
                 far,
                 distance,
+                model_surface: None,
                 shell,
                 spread,
                 cos,
@@ -1116,7 +1173,9 @@ fn pivots(data: &Dataset) -> Vec<Vec3> {
         .collect()
 }
 
-/// Adds every surface sample's position gradient (`batch.d_points`) to its frame's pose correction.
+/// Adds every sample's position gradient (`batch.d_points`) to its frame's pose correction: the
+/// surface rays' (colour, depth, opacity, SDF terms) and the empty rays' (opacity and free space:
+/// the frame's silhouette, which aligns a frame whose depth is sparse).
 fn add_pose_grads(batch: &Batch, frames: &mut FrameCorrections) {
     for (r, &frame) in batch.ray_frame.iter().enumerate() {
         let (s, e) = (batch.offsets[r], batch.offsets[r + 1]);

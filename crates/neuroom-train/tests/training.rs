@@ -284,6 +284,42 @@ fn a_phone_capture_trains_better_with_its_frames_corrected() {
 }
 
 #[test]
+fn a_phone_capture_without_depth_is_aligned_by_its_silhouettes() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut data, bounds, errors) = phone_column_data(dir.path());
+    // No depth on any surface ray: what aligns a frame is its colours and its silhouette, the
+    // opacity and free-space terms of the rays that miss the column.
+    data.rays.distance.fill(0.0);
+    data.rays.normal.fill([0; 3]);
+    let aug = Augmentation::default();
+    let run = |silhouettes: bool| {
+        let mut config = quick_config(800);
+        config.frame_refinement.when = RefineWhen::Always;
+        config.frame_refinement.silhouettes = silhouettes;
+        let mut trainer = Trainer::new(&data, &aug, &config, ModelKind::Object, bounds);
+        trainer.run("column", None, &Quiet).unwrap();
+        centre_ray_error(&data, &errors, trainer.corrections())
+    };
+    let before = centre_ray_error(&data, &errors, None);
+    let (colours_only, with_silhouettes) = (run(false), run(true));
+    eprintln!(
+        "phone column without depth: error at the column {:.2} cm; corrected by the colours {:.2} cm, \
+         with the silhouettes {:.2} cm",
+        100.0 * before,
+        100.0 * colours_only,
+        100.0 * with_silhouettes
+    );
+    assert!(
+        with_silhouettes < 0.6 * before,
+        "{with_silhouettes} against {before}"
+    );
+    assert!(
+        with_silhouettes < 0.9 * colours_only,
+        "{with_silhouettes} against {colours_only}"
+    );
+}
+
+#[test]
 fn noisy_depth_trains_better_when_the_capture_declares_its_noise() {
     let dir = tempfile::tempdir().unwrap();
     let (mut data, bounds) = column_data(dir.path());

@@ -110,7 +110,12 @@ impl TrainOptions {
 
 /// The configuration fields left out of [`TrainConfig`]'s serialised form while they hold their
 /// default: `neuroom bench train --set` may still set them ([`crate::overrides::with_overrides`]).
-pub const OPTIONAL_KEYS: &[&str] = &["frame_refinement", "mlp_precision", "ray_choice"];
+pub const OPTIONAL_KEYS: &[&str] = &[
+    "frame_refinement",
+    "mlp_precision",
+    "ray_choice",
+    "unobserved_samples",
+];
 
 /// The names of the models a room needs (`background` first, then one per object capture): what
 /// `--only` takes.
