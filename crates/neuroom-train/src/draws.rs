@@ -89,10 +89,10 @@ impl RayPlan {
         self.distance.filter(|_| !self.empty)
     }
 
-    /// The distance the samples gather around: the observed one, else the model's surface.
+    /// The distance the samples gather around: the observed one, else the model's surface (found
+    /// for surface rays only).
     fn guide(&self) -> Option<f32> {
-        self.observed()
-            .or(self.model_surface.filter(|_| !self.empty))
+        self.observed().or(self.model_surface)
     }
 
     /// The ray's sample depths, drawn from its own copy of the step's generator.

@@ -1173,9 +1173,9 @@ fn pivots(data: &Dataset) -> Vec<Vec3> {
         .collect()
 }
 
-/// Adds every sample's position gradient (`batch.d_points`) to its frame's pose correction: the
-/// surface rays' (colour, depth, opacity, SDF terms) and the empty rays' (opacity and free space:
-/// the frame's silhouette, which aligns a frame whose depth is sparse).
+/// Adds every sample's position gradient in `batch.d_points` to its frame's pose correction: the
+/// surface rays' (colour, depth, opacity, SDF terms), and the empty rays' (opacity and free space:
+/// the frame's silhouette) when [`crate::config::FrameRefinement::silhouettes`] put them there.
 fn add_pose_grads(batch: &Batch, frames: &mut FrameCorrections) {
     for (r, &frame) in batch.ray_frame.iter().enumerate() {
         let (s, e) = (batch.offsets[r], batch.offsets[r + 1]);
