@@ -348,7 +348,7 @@ fn load_view(
         .collect();
     let camera_to_model = role.capture_to_model().compose(&frame.camera_to_world);
     let surface: Vec<bool> = class.iter().map(|c| *c == PixelClass::Surface).collect();
-    let normal_cam = normals_from_depth(&cam, &z, &surface);
+    let normal_cam = normals_from_depth(&cam, &z, &surface, capture.device.depth_noise);
     let distance = (0..n)
         .map(|i| {
             let px = DVec2::new(

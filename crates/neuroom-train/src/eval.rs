@@ -361,7 +361,8 @@ pub fn color_error(view: &FrameView, rendered: &[[f32; 3]], target: &[[f32; 3]])
     s
 }
 
-/// Absolute distance errors (metres) where the view's depth is known and the render hit something.
+/// Signed distance errors (metres, rendered − observed) where the view's depth is known and the render
+/// hit something.
 pub fn distance_errors(view: &FrameView, rendered: &Rendered) -> Vec<f32> {
     (0..view.rgb.len())
         .filter(|&i| {
@@ -369,7 +370,7 @@ pub fn distance_errors(view: &FrameView, rendered: &Rendered) -> Vec<f32> {
                 && view.distance[i] > 0.0
                 && rendered.opacity[i] > 0.5
         })
-        .map(|i| (rendered.distance[i] - view.distance[i]).abs())
+        .map(|i| rendered.distance[i] - view.distance[i])
         .collect()
 }
 
@@ -446,6 +447,11 @@ pub struct EvalReport {
     pub psnr_db: f64,
     /// Median absolute distance error (metres).
     pub median_depth_error_m: f32,
+    /// Median signed distance error (metres): negative where the model's surfaces stand in front of
+    /// the observed ones, as a model that grew towards its cameras does. Reports written before it
+    /// existed read 0.
+    #[serde(default)]
+    pub median_depth_offset_m: f32,
     /// Fraction of the model's pixels the render hit (opacity > 0.5).
     pub coverage: f32,
     /// Light-code check per augmentation map: PSNR with its code and with code 0 against the re-lit view.
@@ -560,7 +566,8 @@ pub fn evaluate(
     EvalReport {
         views: views.len(),
         psnr_db: total.psnr(),
-        median_depth_error_m: median(errors),
+        median_depth_error_m: median(errors.iter().map(|e| e.abs()).collect()),
+        median_depth_offset_m: median(errors),
         coverage: hit as f32 / pixels.max(1) as f32,
         light_codes: light_check.checks(augmentation),
     }

@@ -16,7 +16,15 @@
 //!
 //! Corrections are relative: moving every camera alike moves the model with them, and scaling every
 //! gain alike rescales its colours. After each step the mean correction over the frames is taken out,
-//! so the model keeps the frame the capture's poses and exposures average to.
+//! so the model keeps the frame the capture's poses and exposures average to. One more motion of all
+//! frames together leaves the data nearly as well explained: every camera moving by the same distance
+//! along its line of sight (towards what it sees), while every surface moves to meet it: a room
+//! shrinking or growing around cameras inside it, an object growing or shrinking before cameras
+//! around it. Each frame's depth then reads as before wherever it sees no two opposite faces, so
+//! noisy depth lets the model drift along it by centimetres. Its mean over the frames is taken out
+//! too (the translations' least-squares part along a common shift plus a common move along each
+//! frame's sight), so the model keeps the sizes the capture's poses give on average, as it keeps
+//! their place.
 
 use glam::{Mat3, Vec3};
 use neuroom_field::{AdamConfig, AdamUpdate};
@@ -52,6 +60,10 @@ pub struct FrameCorrections {
     step: u64,
     /// Pivot of every frame's rotation (model frame).
     pivots: Vec<[f32; 3]>,
+    /// Unit line of sight of every frame, from its centre to its pivot (zero for a frame that sees
+    /// nothing); empty in checkpoints written before it existed, which then keep the mean shift only.
+    #[serde(default)]
+    sights: Vec<[f32; 3]>,
     /// Gradient of the current step.
     #[serde(skip)]
     grads: Vec<f32>,
@@ -77,11 +89,20 @@ pub struct CorrectionSummary {
     pub gain_range: [f32; 2],
 }
 
+/// Where a frame's pose correction is anchored.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameAnchor {
+    /// The centroid of the surface points the frame sees (its centre when it sees none): what its
+    /// turn is about.
+    pub pivot: Vec3,
+    /// Unit direction from the frame's centre to its pivot (zero when it sees nothing).
+    pub sight: Vec3,
+}
+
 impl FrameCorrections {
-    /// No correction yet for frames turning about `pivots` (one per frame: the centroid of what it
-    /// sees, or its centre when it sees nothing).
-    pub fn new(pivots: Vec<Vec3>, corrected: Corrected) -> Self {
-        let frames = pivots.len();
+    /// No correction yet for frames anchored at `anchors` (one per frame).
+    pub fn new(anchors: Vec<FrameAnchor>, corrected: Corrected) -> Self {
+        let frames = anchors.len();
         let n = frames * PER_FRAME;
         Self {
             corrected,
@@ -89,7 +110,8 @@ impl FrameCorrections {
             m: vec![0.0; n],
             v: vec![0.0; n],
             step: 0,
-            pivots: pivots.iter().map(|p| p.to_array()).collect(),
+            pivots: anchors.iter().map(|a| a.pivot.to_array()).collect(),
+            sights: anchors.iter().map(|a| a.sight.to_array()).collect(),
             grads: vec![0.0; n],
             rotations: vec![Mat3::IDENTITY; frames],
         }
@@ -214,6 +236,40 @@ impl FrameCorrections {
                 *x -= m;
             }
         }
+        self.centre_along_sights();
+    }
+
+    /// Takes the translations' common move along the frames' sights out (see the module), after
+    /// the mean shift is out: the least-squares fit of `τ_f ≈ t + x · s_f` over the frames, with
+    /// `Σ τ_f = 0`, gives `x = Σ τ_f · s_f / (Σ |s_f|² − |Σ s_f|² / N)` and `t = −x Σ s_f / N`,
+    /// and `t + x · s_f` comes off every frame's. Nothing comes off when the sights do not differ
+    /// (the move is then a common shift) or when the corrections have none.
+    fn centre_along_sights(&mut self) {
+        let frames = self.frames();
+        if self.sights.len() != frames {
+            return;
+        }
+        let sight = |f: usize| Vec3::from(self.sights[f]);
+        let n = frames as f32;
+        let (mut along, mut sum, mut norms) = (0.0f32, Vec3::ZERO, 0.0f32);
+        for f in 0..frames {
+            along += self.translation(f).dot(sight(f));
+            sum += sight(f);
+            norms += sight(f).length_squared();
+        }
+        let spread = norms - sum.length_squared() / n;
+        if along == 0.0 || spread <= 1e-3 * n {
+            return;
+        }
+        let x = along / spread;
+        let t = -x * sum / n;
+        for f in 0..frames {
+            let off = t + x * sight(f);
+            let s = f * PER_FRAME + TRANSLATION;
+            for (p, o) in self.params[s..s + 3].iter_mut().zip(off.to_array()) {
+                *p -= o;
+            }
+        }
     }
 
     fn refresh_rotations(&mut self) {
@@ -263,6 +319,79 @@ fn rotation(omega: Vec3) -> Mat3 {
 mod tests {
     use super::*;
 
+    /// Anchors at `pivots` without sights (only the mean shift is taken out).
+    fn anchors(pivots: &[Vec3]) -> Vec<FrameAnchor> {
+        pivots
+            .iter()
+            .map(|&pivot| FrameAnchor {
+                pivot,
+                sight: Vec3::ZERO,
+            })
+            .collect()
+    }
+
+    /// Frames inside a room, each looking at another wall: every camera moving along its sight (the
+    /// room shrinking around them) plus a common shift comes off whole; what differs between the
+    /// frames stays, with no mean shift and no mean move along the sights.
+    #[test]
+    fn a_common_move_along_the_sights_is_taken_out() {
+        let sights = [
+            Vec3::X,
+            -Vec3::X,
+            Vec3::Y,
+            -Vec3::Y,
+            Vec3::new(0.6, 0.8, 0.0),
+        ];
+        let frames: Vec<FrameAnchor> = sights
+            .iter()
+            .map(|&sight| FrameAnchor {
+                pivot: 2.0 * sight,
+                sight,
+            })
+            .collect();
+        let mut c = FrameCorrections::new(
+            frames,
+            Corrected {
+                colour: false,
+                pose: true,
+            },
+        );
+        let (shift, along) = (Vec3::new(0.003, -0.002, 0.001), -0.012);
+        let own = [
+            Vec3::new(0.0, 0.004, 0.0),
+            Vec3::new(0.0, -0.002, 0.001),
+            Vec3::new(0.002, 0.0, 0.0),
+            Vec3::new(-0.003, 0.0, -0.001),
+            Vec3::new(0.0, 0.0, 0.0),
+        ];
+        for f in 0..sights.len() {
+            let tau = shift + along * sights[f] + own[f];
+            c.params[f * PER_FRAME + TRANSLATION..f * PER_FRAME + TRANSLATION + 3]
+                .copy_from_slice(&tau.to_array());
+        }
+        c.centre();
+        let (mut sum, mut along_sum) = (Vec3::ZERO, 0.0);
+        for (f, sight) in sights.iter().enumerate() {
+            sum += c.translation(f);
+            along_sum += c.translation(f).dot(*sight);
+            let kept = c.translation(f) - own[f];
+            assert!(
+                kept.length() < 2e-3,
+                "frame {f}: {} kept of the common move",
+                kept
+            );
+        }
+        assert!(sum.length() < 1e-6, "mean shift left: {sum}");
+        assert!(
+            along_sum.abs() < 1e-6,
+            "move along the sights left: {along_sum}"
+        );
+        // The frames' own corrections alone (no common part) keep their size.
+        let own_size: f32 = own.iter().map(|t| t.length()).sum();
+        let left: f32 = (0..sights.len()).map(|f| c.translation(f).length()).sum();
+        assert!(left > 0.5 * own_size, "{left} of {own_size}");
+    }
+
     /// A loss of the samples of one ray: `Σ_i w_i · φ(x_i)` with a smooth `φ`.
     fn phi(x: Vec3) -> f32 {
         (1.3 * x.x).sin() + x.y * x.z + 0.5 * x.x * x.x
@@ -285,7 +414,7 @@ mod tests {
         );
         let ts = [0.5, 1.1, 1.7];
         let mut c = FrameCorrections::new(
-            vec![Vec3::new(0.1, 0.3, -0.5)],
+            anchors(&[Vec3::new(0.1, 0.3, -0.5)]),
             Corrected {
                 colour: false,
                 pose: true,
@@ -331,7 +460,7 @@ mod tests {
             (0..3).map(|k| (g[k] * rgb[k] - target[k]).powi(2)).sum()
         };
         let mut c = FrameCorrections::new(
-            vec![Vec3::ZERO],
+            anchors(&[Vec3::ZERO]),
             Corrected {
                 colour: true,
                 pose: false,
@@ -370,7 +499,7 @@ mod tests {
         // Turns about the given centres leave these rays' points on their axes: only the shifts
         // are pinned down, as the three planes pin them.
         let mut c = FrameCorrections::new(
-            error.to_vec(),
+            anchors(&error),
             Corrected {
                 colour: true,
                 pose: true,
@@ -406,7 +535,7 @@ mod tests {
     #[test]
     fn survives_a_checkpoint() {
         let mut c = FrameCorrections::new(
-            vec![Vec3::X, Vec3::Y, Vec3::Z],
+            anchors(&[Vec3::X, Vec3::Y, Vec3::Z]),
             Corrected {
                 colour: true,
                 pose: true,

@@ -19,7 +19,7 @@ use crate::dataset::{Aabb, Dataset};
 use crate::draws::{
     RayPlan, SampleCounts, SampleRows, probe_distances, surface_from_probes, write_samples,
 };
-use crate::frame_corrections::{Corrected, FrameCorrections};
+use crate::frame_corrections::{Corrected, FrameAnchor, FrameCorrections};
 use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sdf_loss};
 use crate::progress::Progress;
 use crate::ray_choice::ErrorMap;
@@ -1148,12 +1148,12 @@ fn corrections_for(data: &Dataset, config: &TrainConfig) -> Option<FrameCorrecti
         },
         RefineWhen::Never => return None,
     };
-    (corrected.colour || corrected.pose).then(|| FrameCorrections::new(pivots(data), corrected))
+    (corrected.colour || corrected.pose).then(|| FrameCorrections::new(anchors(data), corrected))
 }
 
-/// The centroid of the surface points each training frame sees (its centre when it sees none): what
-/// its pose correction turns about.
-fn pivots(data: &Dataset) -> Vec<Vec3> {
+/// Where each training frame's pose correction is anchored: the centroid of the surface points it
+/// sees (its centre when it sees none), and its line of sight there.
+fn anchors(data: &Dataset) -> Vec<FrameAnchor> {
     let frames = data.origins.len();
     let mut sum = vec![Vec3::ZERO; frames];
     let mut count = vec![0u32; frames];
@@ -1166,9 +1166,16 @@ fn pivots(data: &Dataset) -> Vec<Vec3> {
         }
     }
     (0..frames)
-        .map(|f| match count[f] {
-            0 => Vec3::from(data.origins[f]),
-            n => sum[f] / n as f32,
+        .map(|f| {
+            let centre = Vec3::from(data.origins[f]);
+            let pivot = match count[f] {
+                0 => centre,
+                n => sum[f] / n as f32,
+            };
+            FrameAnchor {
+                pivot,
+                sight: (pivot - centre).normalize_or_zero(),
+            }
         })
         .collect()
 }

@@ -164,9 +164,11 @@ pub fn describe_train(r: &neuroom_train::bench::ModelBenchReport) -> String {
         .as_ref()
         .map_or("no held-out views".to_string(), |e| {
             format!(
-                "held-out PSNR {:.2} dB{ceiling}, median depth error {:.1} mm, light codes [{}]",
+                "held-out PSNR {:.2} dB{ceiling}, median depth error {:.1} mm (offset {:+.1} mm), \
+                 light codes [{}]",
                 e.psnr_db,
                 e.median_depth_error_m * 1e3,
+                e.median_depth_offset_m * 1e3,
                 crate::train::light_code_gains(&e.light_codes)
             )
         });
