@@ -32,16 +32,20 @@ pub struct PhoneBenchSpec {
 
 /// One model's figures on the original room's views and mesh.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct ModelFigures {
+pub struct HeldOutFigures {
     /// Held-out PSNR (dB).
     pub psnr_db: Option<f64>,
     /// Median held-out depth error (mm).
     pub median_depth_error_mm: Option<f64>,
+    /// Median signed held-out depth error (mm): negative where the model's surfaces stand nearer the
+    /// cameras than the room's (a room that shrank, an object that grew).
+    #[serde(default)]
+    pub median_depth_offset_mm: Option<f64>,
     /// Mean Chamfer distance to the ground-truth mesh (mm).
     pub chamfer_mm: Option<f64>,
 }
 
-impl ModelFigures {
+impl HeldOutFigures {
     fn of(score: &ModelScore) -> Self {
         Self {
             psnr_db: score.eval.as_ref().map(|e| e.psnr_db),
@@ -49,6 +53,10 @@ impl ModelFigures {
                 .eval
                 .as_ref()
                 .map(|e| e.median_depth_error_m as f64 * 1000.0),
+            median_depth_offset_mm: score
+                .eval
+                .as_ref()
+                .map(|e| e.median_depth_offset_m as f64 * 1000.0),
             chamfer_mm: score.chamfer_m.map(|c| c.mean as f64 * 1000.0),
         }
     }
@@ -60,9 +68,9 @@ pub struct PhoneModelRow {
     /// The model's name (`background` or the capture's).
     pub name: String,
     /// Trained on the room.
-    pub clean: ModelFigures,
+    pub clean: HeldOutFigures,
     /// Trained on the phone copy.
-    pub phone: ModelFigures,
+    pub phone: HeldOutFigures,
 }
 
 /// What phone data cost.
@@ -189,8 +197,8 @@ fn compare_models(
             let crossed = evaluate_on_capture(spec, phone_entry, phone_field, &config)?;
             Ok(PhoneModelRow {
                 name: spec.name.clone(),
-                clean: ModelFigures::of(&own),
-                phone: ModelFigures::of(&crossed),
+                clean: HeldOutFigures::of(&own),
+                phone: HeldOutFigures::of(&crossed),
             })
         })
         .collect()

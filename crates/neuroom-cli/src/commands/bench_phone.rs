@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use neuroom::bench_phone::{ModelFigures, PhoneBenchSpec, bench_phone};
+use neuroom::bench_phone::{HeldOutFigures, PhoneBenchSpec, bench_phone};
 use neuroom::locate::LocateConfig;
 use neuroom::suite::SuiteTraining;
 use neuroom::train::TrainBar;
@@ -44,13 +44,14 @@ pub struct PhoneArgs {
     json: bool,
 }
 
-fn figures(f: &ModelFigures) -> String {
+fn figures(f: &HeldOutFigures) -> String {
     let show =
         |v: Option<f64>, unit: &str| v.map_or("–".to_string(), |v| format!("{v:.2} {unit}"));
     format!(
-        "PSNR {}, depth {}, Chamfer {}",
+        "PSNR {}, depth {} (offset {}), Chamfer {}",
         show(f.psnr_db, "dB"),
         show(f.median_depth_error_mm, "mm"),
+        show(f.median_depth_offset_mm, "mm"),
         show(f.chamfer_mm, "mm")
     )
 }
