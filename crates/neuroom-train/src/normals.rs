@@ -57,10 +57,7 @@ pub fn normals_from_depth(
 fn neighbour_normals(camera: &Pinhole, z: &[f32], valid: &[bool]) -> Vec<[f32; 3]> {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let ok = |i: usize| valid[i] && z[i] > 0.0;
-    let point = |i: usize| {
-        let px = DVec2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
-        camera.unproject(px, z[i] as f64)
-    };
+    let point = |i: usize| pixel_point(camera, (i % w) as f64, (i / w) as f64, z[i] as f64);
     let footprint = 1.0 / camera.fx.min(camera.fy);
     let same = |i: usize, j: usize| {
         let limit = z[i] as f64 * MAX_RELATIVE_STEP.max(MAX_SLOPE * footprint);
@@ -94,6 +91,11 @@ fn neighbour_normals(camera: &Pinhole, z: &[f32], valid: &[bool]) -> Vec<[f32; 3
         .collect()
 }
 
+/// The camera-frame point at z-depth `depth` through the centre of pixel `(u, v)`.
+fn pixel_point(camera: &Pinhole, u: f64, v: f64, depth: f64) -> DVec3 {
+    camera.unproject(DVec2::new(u + 0.5, v + 0.5), depth)
+}
+
 /// `n` turned to face the camera from point `p`; straight back along the ray when `n` is zero.
 fn facing_camera(n: DVec3, p: DVec3) -> [f32; 3] {
     let n = if n == DVec3::ZERO { -p.normalize() } else { n };
@@ -106,7 +108,7 @@ fn fitted_normals(camera: &Pinhole, z: &[f32], valid: &[bool], noise: DepthNoise
     let (w, h) = (camera.width as usize, camera.height as usize);
     let ok = |i: usize| valid[i] && z[i] > 0.0;
     let focal = camera.fx.min(camera.fy);
-    let at = |u: f64, v: f64, depth: f64| camera.unproject(DVec2::new(u + 0.5, v + 0.5), depth);
+    let at = |u: f64, v: f64, depth: f64| pixel_point(camera, u, v, depth);
     (0..w * h)
         .map(|i| {
             if !ok(i) {
@@ -275,11 +277,14 @@ mod tests {
     }
 
     #[test]
-    fn the_fit_window_grows_with_the_noise_and_shrinks_with_the_focal_length() {
+    fn the_fit_window_grows_with_the_noise_against_the_pixel_footprint() {
         assert_eq!(fit_radius(0.0, 2.0, 260.0), 1);
         let near = fit_radius(0.01, 1.0, 260.0);
         let far = fit_radius(0.02, 3.0, 260.0);
         assert!(near > far, "{near} {far}");
+        // Smaller pixels (a longer focal length) need a wider window for the same noise.
+        let finer = fit_radius(0.01, 1.0, 520.0);
+        assert!(finer > near, "{finer} {near}");
         assert_eq!(fit_radius(1.0, 1.0, 260.0), MAX_FIT_RADIUS);
     }
 }
