@@ -673,7 +673,11 @@ impl<'a> Trainer<'a> {
     /// and which are relit. Rays that miss the model's bounds are dropped.
     fn plan_rays(&mut self) -> Vec<RayPlan> {
         let inv_s = self.field.inv_s();
-        let (shell_min, shell_max) = (self.budget.shell_min * self.diag, 0.1 * self.diag);
+        let limits = ShellLimits {
+            min: self.budget.shell_min * self.diag,
+            max: 0.1 * self.diag,
+            band: self.budget.sdf_band * self.diag,
+        };
         let counts = self.sample_counts();
         let rays = &self.data.rays;
         let rng = &mut self.state.rng;
@@ -721,15 +725,12 @@ impl<'a> Trainer<'a> {
             let distance = (rays.distance[i] > 0.0).then_some(rays.distance[i]);
             let spread = depth_spread(distance, self.data.device.depth_noise);
             let normal = rays.normal(i);
-            // |n · d|: a grazing ray crosses the NeuS transition over a longer stretch.
             let cos = if normal == Vec3::ZERO {
                 1.0
             } else {
                 normal.dot(dir).abs().max(0.1)
             };
-            let shell = (5.0 / (inv_s * cos))
-                .clamp(shell_min, shell_max)
-                .max(spread);
+            let shell = limits.half_width(inv_s, cos, spread);
             let count = counts.of(near, far, distance.filter(|_| !empty), shell);
             let sample_rng = *rng;
             for _ in 0..count {
@@ -1122,6 +1123,37 @@ impl Lap {
     }
 }
 
+/// The bounds of a ray's depth-guided shell ([`ShellLimits::half_width`]), in metres.
+#[derive(Clone, Copy, Debug)]
+struct ShellLimits {
+    /// Narrowest half-width.
+    min: f32,
+    /// Widest half-width.
+    max: f32,
+    /// Half-width of the SDF's near band (the samples whose SDF is regressed to the depth).
+    band: f32,
+}
+
+impl ShellLimits {
+    /// The shell's half-width on a ray of `|n · d|` = `cos` whose depth may be off by `spread`:
+    /// the NeuS transition, `5 / (inv_s · cos)` within the limits (a grazing ray crosses it over a
+    /// longer stretch), and at least the spread. With noisy depth (`spread > 0`) the shell spans
+    /// the whole near band too, which is at least the spread: the band's SDF targets then carry
+    /// the noise, and a part of the band the samples leave out is shaped only by what the noisy
+    /// updates of the hash grid leak into it. On a phone-degraded room thin floaters grew there,
+    /// a few centimetres in front of the floor; sampled, the band's free-space side and the
+    /// eikonal term keep it clean (docs/experiment-log.md, 2026-12-07). Exact depth keeps the narrow
+    /// shell, its targets consistent.
+    fn half_width(&self, inv_s: f32, cos: f32, spread: f32) -> f32 {
+        let transition = (5.0 / (inv_s * cos)).clamp(self.min, self.max);
+        if spread > 0.0 {
+            transition.max(self.band.max(spread))
+        } else {
+            transition
+        }
+    }
+}
+
 /// How far from a ray's observed distance `d` its surface may lie when the capture's depth is noisy:
 /// two standard deviations of the sensor's noise there (0 for exact depth or none). The depth-guided
 /// samples and the SDF's near band widen to it, so a sample the noise put in front of the true
@@ -1277,5 +1309,26 @@ impl Trainer<'_> {
             self.field.inv_s()
         ));
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Exact depth keeps the NeuS transition's shell; noisy depth spans the near band, or the
+    /// spread where that is wider.
+    #[test]
+    fn a_noisy_rays_shell_spans_its_near_band() {
+        let limits = ShellLimits {
+            min: 0.005,
+            max: 0.5,
+            band: 0.05,
+        };
+        let transition = 5.0 / (1000.0 * 0.5);
+        assert_eq!(limits.half_width(1000.0, 0.5, 0.0), transition);
+        assert_eq!(limits.half_width(1000.0, 0.5, 0.02), 0.05);
+        assert_eq!(limits.half_width(1000.0, 0.5, 0.08), 0.08);
+        assert_eq!(limits.half_width(20.0, 0.5, 0.02), 0.5);
     }
 }
