@@ -172,6 +172,13 @@ impl<'a> SampleRows<'a> {
     }
 }
 
+/// The half-width of a ray's SDF near zone: the model's `band`, widened to the depth's noise
+/// `spread` (0 for exact depth) so that a sample the noise put in front of the surface is not
+/// taken as free space. The depth-guided shell spans it too when the depth is noisy.
+pub(crate) fn near_band(band: f32, spread: f32) -> f32 {
+    band.max(spread)
+}
+
 /// Writes the samples of every planned ray into `rows` (as many rows as the plans' counts add up
 /// to), in parallel tasks of rays. `band` is the half-width of the SDF's near zone.
 pub(crate) fn write_samples(
@@ -190,7 +197,7 @@ pub(crate) fn write_samples(
         for plan in part {
             plan.samples(counts, &mut depths);
             let ray = rows.split_front(plan.count);
-            let zone_band = band.max(plan.spread);
+            let zone_band = near_band(band, plan.spread);
             for (k, &t) in depths.iter().enumerate() {
                 ray.t[k] = t;
                 ray.points[k] = (plan.origin + t * plan.dir).to_array();

@@ -17,7 +17,8 @@ use crate::config::{
 };
 use crate::dataset::{Aabb, Dataset};
 use crate::draws::{
-    RayPlan, SampleCounts, SampleRows, probe_distances, surface_from_probes, write_samples,
+    RayPlan, SampleCounts, SampleRows, near_band, probe_distances, surface_from_probes,
+    write_samples,
 };
 use crate::frame_corrections::{Corrected, FrameAnchor, FrameCorrections};
 use crate::losses::{LossParts, RayScales, RayTarget, SampleZone, ray_loss, sdf_loss};
@@ -1138,16 +1139,16 @@ impl ShellLimits {
     /// The shell's half-width on a ray of `|n · d|` = `cos` whose depth may be off by `spread`:
     /// the NeuS transition, `5 / (inv_s · cos)` within the limits (a grazing ray crosses it over a
     /// longer stretch), and at least the spread. With noisy depth (`spread > 0`) the shell spans
-    /// the whole near band too, which is at least the spread: the band's SDF targets then carry
-    /// the noise, and a part of the band the samples leave out is shaped only by what the noisy
-    /// updates of the hash grid leak into it. On a phone-degraded room thin floaters grew there,
+    /// the whole near band too ([`near_band`], at least the spread): the band's SDF targets then
+    /// carry the noise, and a part of the band the samples leave out is shaped only by what the
+    /// noisy updates of the hash grid leak into it. On a phone-degraded room thin floaters grew there,
     /// a few centimetres in front of the floor; sampled, the band's free-space side and the
     /// eikonal term keep it clean (docs/experiment-log.md, 2026-12-07). Exact depth keeps the narrow
     /// shell, its targets consistent.
     fn half_width(&self, inv_s: f32, cos: f32, spread: f32) -> f32 {
         let transition = (5.0 / (inv_s * cos)).clamp(self.min, self.max);
         if spread > 0.0 {
-            transition.max(self.band.max(spread))
+            transition.max(near_band(self.band, spread))
         } else {
             transition
         }

@@ -47,16 +47,11 @@ pub struct HeldOutFigures {
 
 impl HeldOutFigures {
     fn of(score: &ModelScore) -> Self {
+        let eval = score.eval.as_ref();
         Self {
-            psnr_db: score.eval.as_ref().map(|e| e.psnr_db),
-            median_depth_error_mm: score
-                .eval
-                .as_ref()
-                .map(|e| e.median_depth_error_m as f64 * 1000.0),
-            median_depth_offset_mm: score
-                .eval
-                .as_ref()
-                .map(|e| e.median_depth_offset_m as f64 * 1000.0),
+            psnr_db: eval.map(|e| e.psnr_db),
+            median_depth_error_mm: eval.map(|e| e.median_depth_error_m as f64 * 1000.0),
+            median_depth_offset_mm: eval.map(|e| e.median_depth_offset_m as f64 * 1000.0),
             chamfer_mm: score.chamfer_m.map(|c| c.mean as f64 * 1000.0),
         }
     }
