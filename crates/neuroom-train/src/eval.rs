@@ -4,6 +4,7 @@
 //! of the SDF along the ray from a coarse SDF-only pass, then renders a thin shell around it with NeuS
 //! volume rendering (rays without a crossing render nothing: opacity 0). Figures:
 //! - PSNR (sRGB, over black) on the model's pixels: the object's pixels, or every valid background pixel;
+//!   and the same with each view's exposure and white balance matched, for models of auto-exposed frames;
 //! - median absolute error of the rendered distance (`depth / opacity`) where the depth is known;
 //! - Chamfer distance between the extracted mesh ([`neuroom_core::surface`]) and the ground truth;
 //! - the light-code check: held-out views re-lit by an augmentation map, rendered with that map's code and
@@ -361,6 +362,55 @@ pub fn color_error(view: &FrameView, rendered: &[[f32; 3]], target: &[[f32; 3]])
     s
 }
 
+/// Squared colour error of `rendered` against `target` over the view's surface pixels after matching
+/// the view's exposure and white balance: one gain per channel, fitted by least squares on one half of
+/// the view's pixels (the white squares of a checkerboard) and scored on the other, both ways round.
+///
+/// A model trained with per-frame colour gains ([`crate::frame_corrections`]) keeps the exposure its
+/// training frames average to, which no capture fixes: a phone's exposures are its own, and the mean of a
+/// few dozen random ones is a few percent off any other view's. A held-out view has its own exposure
+/// too, so it is matched as the model's own frames are, with the model's own correction (a gain per
+/// channel on sRGB values). Fitting on one half and scoring on the other keeps the fit from seeing
+/// the pixels it is scored on, as NeRF-W's protocol for its per-image appearance does; the halves
+/// interleave, so each sees what the other does (left and right halves of a view show different
+/// surfaces, whose own errors would then pass for a gain).
+pub fn exposure_matched_error(
+    view: &FrameView,
+    rendered: &[[f32; 3]],
+    target: &[[f32; 3]],
+) -> ViewScore {
+    let width = view.camera.width as usize;
+    let white = |i: usize| (i % width + i / width).is_multiple_of(2);
+    let surface = |i: &usize| view.class[*i] == PixelClass::Surface;
+    let gains = |in_half: bool| {
+        let mut sums = [[0.0f64; 2]; 3];
+        for i in (0..view.rgb.len())
+            .filter(surface)
+            .filter(|&i| white(i) == in_half)
+        {
+            for (c, sum) in sums.iter_mut().enumerate() {
+                let (r, t) = (rendered[i][c] as f64, target[i][c] as f64);
+                sum[0] += r * t;
+                sum[1] += r * r;
+            }
+        }
+        sums.map(|[rt, rr]| if rr > 0.0 { rt / rr } else { 1.0 })
+    };
+    // Indexed by `white(i)`: a white pixel takes the black squares' gains, and the other way round.
+    let crossed = [gains(true), gains(false)];
+    let mut s = ViewScore::default();
+    for i in (0..view.rgb.len()).filter(surface) {
+        let gain = crossed[usize::from(white(i))];
+        for c in 0..3 {
+            let matched = (rendered[i][c] as f64 * gain[c]).clamp(0.0, 1.0);
+            let e = matched - target[i][c] as f64;
+            s.squared_error += e * e;
+            s.count += 1;
+        }
+    }
+    s
+}
+
 /// Signed distance errors (metres, rendered − observed) where the view's depth is known and the render
 /// hit something.
 pub fn distance_errors(view: &FrameView, rendered: &Rendered) -> Vec<f32> {
@@ -445,6 +495,11 @@ pub struct EvalReport {
     pub views: usize,
     /// PSNR (dB) over the model's pixels of every held-out view.
     pub psnr_db: f64,
+    /// The same with each view's exposure and white balance matched ([`exposure_matched_error`]):
+    /// what a model trained on auto-exposed frames is judged by. Reports written before it existed
+    /// read `None`.
+    #[serde(default)]
+    pub psnr_exposure_matched_db: Option<f64>,
     /// Median absolute distance error (metres).
     pub median_depth_error_m: f32,
     /// Median signed distance error (metres): negative where the model's surfaces stand in front of
@@ -538,8 +593,13 @@ pub fn evaluate(
 ) -> EvalReport {
     let diag = (Vec3::from(bounds.max) - Vec3::from(bounds.min)).length();
     let options = RenderOptions::for_diagonal(diag);
-    let (mut total, mut errors, mut hit, mut pixels) =
-        (ViewScore::default(), Vec::new(), 0usize, 0usize);
+    let (mut total, mut matched, mut errors, mut hit, mut pixels) = (
+        ViewScore::default(),
+        ViewScore::default(),
+        Vec::new(),
+        0usize,
+        0usize,
+    );
     let checked = light_check_views(views.len());
     let mut light_check = LightCheckSums::new(augmentation.len());
     for (v, view) in views.iter().enumerate() {
@@ -553,6 +613,7 @@ pub fn evaluate(
         let renders = shade_view(field, view, &found, &lights, &options);
         let r = &renders[0];
         total.add(color_error(view, &r.rgb, &view.rgb));
+        matched.add(exposure_matched_error(view, &r.rgb, &view.rgb));
         errors.extend(distance_errors(view, r));
         let surface = (0..view.rgb.len()).filter(|&i| view.class[i] == PixelClass::Surface);
         for i in surface {
@@ -566,6 +627,7 @@ pub fn evaluate(
     EvalReport {
         views: views.len(),
         psnr_db: total.psnr(),
+        psnr_exposure_matched_db: Some(matched.psnr()),
         median_depth_error_m: median(errors.iter().map(|e| e.abs()).collect()),
         median_depth_offset_m: median(errors),
         coverage: hit as f32 / pixels.max(1) as f32,
@@ -655,5 +717,34 @@ mod tests {
         let mut none = noisy_view(0.01);
         none.class.fill(PixelClass::Empty);
         assert_eq!(noise_psnr_ceiling(&[none]), None);
+    }
+
+    #[test]
+    fn matching_the_exposure_forgives_a_gain_and_nothing_else() {
+        let view = noisy_view(0.05);
+        let gains = [0.9f32, 1.05, 1.1];
+        let exposed: Vec<[f32; 3]> = view
+            .rgb
+            .iter()
+            .map(|p| std::array::from_fn(|c| p[c] / gains[c]))
+            .collect();
+        let raw = color_error(&view, &exposed, &view.rgb).psnr();
+        let matched = exposure_matched_error(&view, &exposed, &view.rgb).psnr();
+        assert!(
+            raw < 30.0 && matched > 80.0,
+            "raw {raw:.1} dB, matched {matched:.1} dB"
+        );
+        // An error that is not a gain (every other pixel too bright, the rest too dark) is not
+        // forgiven: each half's gain is fitted on the other half.
+        let w = view.camera.width as usize;
+        let split: Vec<[f32; 3]> = (0..view.rgb.len())
+            .map(|i| {
+                let k = if (i % w + i / w).is_multiple_of(2) { 1.1 } else { 0.9 };
+                view.rgb[i].map(|v| v * k)
+            })
+            .collect();
+        let raw = color_error(&view, &split, &view.rgb).psnr();
+        let matched = exposure_matched_error(&view, &split, &view.rgb).psnr();
+        assert!(matched < raw, "raw {raw:.1} dB, matched {matched:.1} dB");
     }
 }

@@ -163,9 +163,12 @@ pub fn describe_train(r: &neuroom_train::bench::ModelBenchReport) -> String {
         .held_out
         .as_ref()
         .map_or("no held-out views".to_string(), |e| {
+            let matched = e
+                .psnr_exposure_matched_db
+                .map_or(String::new(), |m| format!(" ({m:.2} dB exposure matched)"));
             format!(
-                "held-out PSNR {:.2} dB{ceiling}, median depth error {:.1} mm (offset {:+.1} mm), \
-                 light codes [{}]",
+                "held-out PSNR {:.2} dB{matched}{ceiling}, median depth error {:.1} mm (offset \
+                 {:+.1} mm), light codes [{}]",
                 e.psnr_db,
                 e.median_depth_error_m * 1e3,
                 e.median_depth_offset_m * 1e3,

@@ -35,6 +35,11 @@ pub struct PhoneBenchSpec {
 pub struct HeldOutFigures {
     /// Held-out PSNR (dB).
     pub psnr_db: Option<f64>,
+    /// Held-out PSNR (dB) with each view's exposure and white balance matched: what the phone's
+    /// arbitrary mean exposure does not decide
+    /// ([`neuroom_train::eval::exposure_matched_error`]).
+    #[serde(default)]
+    pub psnr_exposure_matched_db: Option<f64>,
     /// Median held-out depth error (mm).
     pub median_depth_error_mm: Option<f64>,
     /// Median signed held-out depth error (mm): negative where the model's surfaces stand nearer the
@@ -50,6 +55,7 @@ impl HeldOutFigures {
         let eval = score.eval.as_ref();
         Self {
             psnr_db: eval.map(|e| e.psnr_db),
+            psnr_exposure_matched_db: eval.and_then(|e| e.psnr_exposure_matched_db),
             median_depth_error_mm: eval.map(|e| e.median_depth_error_m as f64 * 1000.0),
             median_depth_offset_mm: eval.map(|e| e.median_depth_offset_m as f64 * 1000.0),
             chamfer_mm: score.chamfer_m.map(|c| c.mean as f64 * 1000.0),
@@ -77,6 +83,10 @@ pub struct PhoneBenchReport {
     pub models: Vec<PhoneModelRow>,
     /// The largest held-out PSNR loss of any model (dB; positive: the phone's is worse).
     pub worst_psnr_loss_db: f64,
+    /// The same with every view's exposure matched (the figure that judges the training: a phone
+    /// capture fixes no exposure).
+    #[serde(default)]
+    pub worst_exposure_matched_psnr_loss_db: f64,
     /// The largest Chamfer increase of any model (mm).
     pub worst_chamfer_increase_mm: f64,
     /// Locate with both rooms' models (absent when the spec asked for the trainings only).
@@ -143,6 +153,9 @@ pub fn bench_phone(
     Ok(PhoneBenchReport {
         room: room.name,
         worst_psnr_loss_db: worst(&|m| Some(m.clean.psnr_db? - m.phone.psnr_db?)),
+        worst_exposure_matched_psnr_loss_db: worst(&|m| {
+            Some(m.clean.psnr_exposure_matched_db? - m.phone.psnr_exposure_matched_db?)
+        }),
         worst_chamfer_increase_mm: worst(&|m| Some(m.phone.chamfer_mm? - m.clean.chamfer_mm?)),
         models,
         locate,
@@ -169,8 +182,9 @@ fn locate_both(
     })
 }
 
-/// Every model of the room, trained on it (`clean`, its own held-out figures) and on the phone copy
-/// (`phone`, scored on the room's held-out views and meshes).
+/// Every model of the room, trained on it (`clean`) and on the phone copy (`phone`), both scored on
+/// the room's held-out views and meshes (the room's models anew, so that both are scored by the same
+/// code, whatever version wrote their manifest).
 fn compare_models(
     room: &Path,
     clean: &Path,
@@ -183,12 +197,9 @@ fn compare_models(
     specs
         .iter()
         .map(|spec| {
-            let (clean_entry, _) = model_named(&clean, &spec.name)?;
+            let (clean_entry, clean_field) = model_named(&clean, &spec.name)?;
             let (phone_entry, phone_field) = model_named(&phone, &spec.name)?;
-            let own = ModelScore {
-                eval: clean_entry.stats.eval.clone(),
-                chamfer_m: clean_entry.stats.chamfer_m,
-            };
+            let own = evaluate_on_capture(spec, clean_entry, clean_field, &config)?;
             let crossed = evaluate_on_capture(spec, phone_entry, phone_field, &config)?;
             Ok(PhoneModelRow {
                 name: spec.name.clone(),
