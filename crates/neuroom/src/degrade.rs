@@ -89,6 +89,45 @@ pub fn degrade_room(
     })
 }
 
+/// Copies the link `relative` of `from` into `to`. A relative link that stays inside `from` (a
+/// suite room's `in_room/captures/background` names the room's own background) becomes the same link
+/// in the copy, so it names the copy's degraded capture; any other link is copied as what it names.
+fn copy_link(from: &Path, to: &Path, relative: &Path) -> anyhow::Result<()> {
+    let source = from.join(relative);
+    let target = std::fs::read_link(&source)
+        .with_context(|| format!("{}: cannot read", source.display()))?;
+    let parent = relative.parent().unwrap_or(Path::new(""));
+    if cfg!(unix) && target.is_relative() && lexically_inside(&parent.join(&target)) {
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(&target, to.join(relative))
+            .with_context(|| format!("{}: cannot link", to.join(relative).display()))?;
+        return Ok(());
+    }
+    let followed = std::fs::metadata(&source)
+        .with_context(|| format!("{}: names nothing that can be read", source.display()))?;
+    if followed.is_dir() {
+        copy_tree(&source, &to.join(relative), &|_| false, Path::new(""))
+    } else {
+        std::fs::copy(&source, to.join(relative))
+            .map(|_| ())
+            .with_context(|| format!("{}: cannot copy", source.display()))
+    }
+}
+
+/// Whether the relative path `path`, its `..` taken back, stays inside its folder.
+fn lexically_inside(path: &Path) -> bool {
+    let mut depth = 0usize;
+    for c in path.components() {
+        match c {
+            Component::Normal(_) => depth += 1,
+            Component::CurDir => {}
+            Component::ParentDir if depth > 0 => depth -= 1,
+            _ => return false,
+        }
+    }
+    true
+}
+
 /// Whether the relative path `path` names something inside its folder (no `..`, not absolute).
 fn stays_inside(path: &Path) -> bool {
     path.components()
@@ -164,7 +203,10 @@ fn copy_tree(
         if skip(&name) {
             continue;
         }
-        if entry.file_type()?.is_dir() {
+        let kind = entry.file_type()?;
+        if kind.is_symlink() {
+            copy_link(from, to, &name)?;
+        } else if kind.is_dir() {
             copy_tree(from, to, skip, &name)?;
         } else {
             std::fs::copy(entry.path(), to.join(&name))

@@ -88,3 +88,57 @@ fn a_room_naming_a_capture_outside_its_folder_is_refused_and_nothing_is_written(
     assert!(!out.exists(), "nothing is written");
     assert!(!scratch.path().join("shared").exists());
 }
+
+/// Copies the folder `from` to `to` (plain files and folders only).
+#[cfg(unix)]
+fn copy_folder(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let path = entry.unwrap().path();
+        let dest = to.join(path.file_name().unwrap());
+        if path.is_dir() {
+            copy_folder(&path, &dest);
+        } else {
+            std::fs::copy(&path, &dest).unwrap();
+        }
+    }
+}
+
+/// A suite room names its background again under `in_room/` by a relative link: the copy keeps the
+/// link, which then names the degraded background; a link out of the room is copied as its file.
+#[cfg(unix)]
+#[test]
+fn links_inside_the_room_stay_links_and_links_out_of_it_are_copied() {
+    use std::os::unix::fs::symlink;
+    let scratch = tempfile::tempdir().unwrap();
+    let room = scratch.path().join("room");
+    copy_folder(&tiny_room(), &room);
+    let background = formats::read_room(room.join("room.json"))
+        .unwrap()
+        .background
+        .capture;
+    std::fs::create_dir_all(room.join("in_room/captures")).unwrap();
+    let inside = Path::new("../..").join(&background);
+    symlink(&inside, room.join("in_room/captures/background")).unwrap();
+    std::fs::write(scratch.path().join("notes.txt"), "outside").unwrap();
+    symlink(scratch.path().join("notes.txt"), room.join("notes.txt")).unwrap();
+
+    let out = scratch.path().join("out");
+    degrade_room(&room, &out, 3, &mut |_, _| {}).unwrap();
+    let link = out.join("in_room/captures/background");
+    assert_eq!(std::fs::read_link(&link).unwrap(), inside);
+    assert_eq!(
+        std::fs::read(link.join("transforms.json")).unwrap(),
+        std::fs::read(out.join(&background).join("transforms.json")).unwrap(),
+        "the link names the degraded background"
+    );
+    assert!(
+        !std::fs::symlink_metadata(out.join("notes.txt"))
+            .unwrap()
+            .is_symlink()
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "outside"
+    );
+}
