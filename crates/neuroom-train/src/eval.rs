@@ -739,7 +739,11 @@ mod tests {
         let w = view.camera.width as usize;
         let split: Vec<[f32; 3]> = (0..view.rgb.len())
             .map(|i| {
-                let k = if (i % w + i / w).is_multiple_of(2) { 1.1 } else { 0.9 };
+                let k = if (i % w + i / w).is_multiple_of(2) {
+                    1.1
+                } else {
+                    0.9
+                };
                 view.rgb[i].map(|v| v * k)
             })
             .collect();

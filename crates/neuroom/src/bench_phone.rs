@@ -104,6 +104,74 @@ pub struct PhoneLocate {
     pub iou_loss_points: f64,
 }
 
+/// `neuroom bench phone` over several rooms: each room's report and what holds over all of them.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PhoneBenchSummary {
+    /// Per room.
+    pub rooms: Vec<PhoneBenchReport>,
+    /// The largest held-out PSNR loss of any model of any room (dB).
+    pub worst_psnr_loss_db: f64,
+    /// The same with every view's exposure matched (dB).
+    pub worst_exposure_matched_psnr_loss_db: f64,
+    /// The largest Chamfer increase of any model of any room (mm).
+    pub worst_chamfer_increase_mm: f64,
+    /// Locate over every room's panoramas (absent when the rooms were not located).
+    pub locate: Option<PhoneLocateSummary>,
+}
+
+/// Locate's IoU with the rooms' models and with their phone copies', over several rooms.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PhoneLocateSummary {
+    /// Panoramas located with either set of models.
+    pub panoramas: usize,
+    /// Mean IoU over every panorama with the rooms' models (percent).
+    pub clean_iou_percent: f64,
+    /// Mean IoU over the same panoramas with the phone copies' models (percent).
+    pub phone_iou_percent: f64,
+    /// `clean_iou_percent − phone_iou_percent` (points).
+    pub iou_loss_points: f64,
+    /// The largest IoU loss of one room (points).
+    pub worst_room_iou_loss_points: f64,
+}
+
+impl PhoneBenchSummary {
+    /// The worst figures over `rooms`, and locate's IoU pooled over their panoramas.
+    pub fn of(rooms: Vec<PhoneBenchReport>) -> Self {
+        let worst = |f: &dyn Fn(&PhoneBenchReport) -> f64| {
+            rooms.iter().map(f).fold(f64::NEG_INFINITY, f64::max)
+        };
+        let located: Option<Vec<&PhoneLocate>> = rooms.iter().map(|r| r.locate.as_ref()).collect();
+        let locate = located.filter(|l| !l.is_empty()).map(|located| {
+            let panoramas: usize = located.iter().map(|l| l.clean.panoramas).sum();
+            let pooled = |iou: &dyn Fn(&PhoneLocate) -> &LocateMean| {
+                located
+                    .iter()
+                    .map(|l| iou(l).iou_percent * iou(l).panoramas as f64)
+                    .sum::<f64>()
+                    / panoramas.max(1) as f64
+            };
+            let (clean, phone) = (pooled(&|l| &l.clean), pooled(&|l| &l.phone));
+            PhoneLocateSummary {
+                panoramas,
+                clean_iou_percent: clean,
+                phone_iou_percent: phone,
+                iou_loss_points: clean - phone,
+                worst_room_iou_loss_points: located
+                    .iter()
+                    .map(|l| l.iou_loss_points)
+                    .fold(f64::NEG_INFINITY, f64::max),
+            }
+        });
+        Self {
+            worst_psnr_loss_db: worst(&|r| r.worst_psnr_loss_db),
+            worst_exposure_matched_psnr_loss_db: worst(&|r| r.worst_exposure_matched_psnr_loss_db),
+            worst_chamfer_increase_mm: worst(&|r| r.worst_chamfer_increase_mm),
+            locate,
+            rooms,
+        }
+    }
+}
+
 /// Degrades the room (once, cached), trains both (cached), scores both on the original's truth.
 /// `progress` shows the training; `note` hears each stage.
 pub fn bench_phone(
@@ -222,4 +290,49 @@ fn model_named<'a>(
         .zip(&models.fields)
         .find(|(m, _)| m.name == name)
         .with_context(|| format!("model `{name}` missing from the manifest"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn room(psnr_loss: f64, chamfer: f64, located: Option<[(usize, f64); 2]>) -> PhoneBenchReport {
+        let mean = |(panoramas, iou_percent): (usize, f64)| LocateMean {
+            panoramas,
+            iou_percent,
+            ..LocateMean::default()
+        };
+        PhoneBenchReport {
+            room: "room".into(),
+            models: Vec::new(),
+            worst_psnr_loss_db: psnr_loss,
+            worst_exposure_matched_psnr_loss_db: psnr_loss - 1.0,
+            worst_chamfer_increase_mm: chamfer,
+            locate: located.map(|[clean, phone]| PhoneLocate {
+                iou_loss_points: clean.1 - phone.1,
+                clean: mean(clean),
+                phone: mean(phone),
+            }),
+        }
+    }
+
+    #[test]
+    fn several_rooms_give_their_worst_figures_and_locate_over_every_panorama() {
+        let summary = PhoneBenchSummary::of(vec![
+            room(3.0, 2.0, Some([(4, 80.0), (4, 70.0)])),
+            room(2.0, 6.0, Some([(1, 60.0), (1, 60.0)])),
+        ]);
+        assert_eq!(summary.worst_psnr_loss_db, 3.0);
+        assert_eq!(summary.worst_exposure_matched_psnr_loss_db, 2.0);
+        assert_eq!(summary.worst_chamfer_increase_mm, 6.0);
+        let locate = summary.locate.expect("both rooms located");
+        assert_eq!(locate.panoramas, 5);
+        assert!((locate.clean_iou_percent - 76.0).abs() < 1e-9);
+        assert!((locate.phone_iou_percent - 68.0).abs() < 1e-9);
+        assert!((locate.iou_loss_points - 8.0).abs() < 1e-9);
+        assert_eq!(locate.worst_room_iou_loss_points, 10.0);
+        // A room not located leaves no pooled figure.
+        let partial = PhoneBenchSummary::of(vec![room(1.0, 1.0, None), room(1.0, 1.0, None)]);
+        assert!(partial.locate.is_none());
+    }
 }

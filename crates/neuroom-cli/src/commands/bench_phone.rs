@@ -1,9 +1,12 @@
-//! `neuroom bench phone ROOM`: the room and its `--phone` copy trained with the same step budgets and
-//! compared on the room's own truth.
+//! `neuroom bench phone ROOM…`: each room and its `--phone` copy trained with the same step budgets
+//! and compared on the room's own truth; with several rooms, the worst of them and locate over all
+//! their panoramas.
 
 use std::path::PathBuf;
 
-use neuroom::bench_phone::{HeldOutFigures, PhoneBenchSpec, bench_phone};
+use neuroom::bench_phone::{
+    HeldOutFigures, PhoneBenchReport, PhoneBenchSpec, PhoneBenchSummary, bench_phone,
+};
 use neuroom::locate::LocateConfig;
 use neuroom::suite::SuiteTraining;
 use neuroom::train::TrainBar;
@@ -15,8 +18,9 @@ use super::bench_suite::describe_mean;
 /// The arguments of `bench phone`.
 #[derive(clap::Args)]
 pub struct PhoneArgs {
-    /// The room folder.
-    room: PathBuf,
+    /// The room folders (several: locate is judged over all their panoramas).
+    #[arg(required = true)]
+    rooms: Vec<PathBuf>,
     /// Where the phone copy and both rooms' models are kept (a second run only scores).
     #[arg(long, default_value = "suite-models")]
     cache: PathBuf,
@@ -59,22 +63,56 @@ fn figures(f: &HeldOutFigures) -> String {
 
 /// Runs the benchmark.
 pub fn run(a: &PhoneArgs) -> anyhow::Result<()> {
-    let spec = PhoneBenchSpec {
-        room: a.room.clone(),
-        cache: a.cache.clone(),
-        training: SuiteTraining {
-            object_steps: a.object_steps,
-            background_steps: a.background_steps,
-            threads: a.threads,
-            frame_corrections: a.frame_corrections.into(),
-            ..SuiteTraining::default()
-        },
-        seed: a.seed,
-        locate: (!a.no_locate).then(LocateConfig::default),
-    };
-    let report = bench_phone(&spec, &TrainBar::default(), &mut |note| {
-        println!("== {note}")
-    })?;
+    let mut reports = Vec::with_capacity(a.rooms.len());
+    for room in &a.rooms {
+        let spec = PhoneBenchSpec {
+            room: room.clone(),
+            cache: a.cache.clone(),
+            training: SuiteTraining {
+                object_steps: a.object_steps,
+                background_steps: a.background_steps,
+                threads: a.threads,
+                frame_corrections: a.frame_corrections.into(),
+                ..SuiteTraining::default()
+            },
+            seed: a.seed,
+            locate: (!a.no_locate).then(LocateConfig::default),
+        };
+        let report = bench_phone(&spec, &TrainBar::default(), &mut |note| {
+            println!("== {note}")
+        })?;
+        print_room(&report);
+        reports.push(report);
+    }
+    let summary = PhoneBenchSummary::of(reports);
+    if summary.rooms.len() > 1 {
+        let iou = summary.locate.as_ref().map_or(String::new(), |l| {
+            format!(
+                "; locate over {} panoramas: IoU {:.1} % → {:.1} % ({:.1} points, worst room {:.1})",
+                l.panoramas,
+                l.clean_iou_percent,
+                l.phone_iou_percent,
+                l.iou_loss_points,
+                l.worst_room_iou_loss_points
+            )
+        });
+        println!(
+            "over {} rooms: PSNR up to {:.2} dB (exposure matched {:.2} dB), Chamfer up to {:+.2} mm{iou}",
+            summary.rooms.len(),
+            summary.worst_psnr_loss_db,
+            summary.worst_exposure_matched_psnr_loss_db,
+            summary.worst_chamfer_increase_mm
+        );
+    }
+    if a.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    }
+    Ok(())
+}
+
+/// One room's figures, as text.
+fn print_room(report: &PhoneBenchReport) {
+    println!("{}:", report.room);
     for m in &report.models {
         println!("{:<14} room:  {}", m.name, figures(&m.clean));
         println!("{:<14} phone: {}", "", figures(&m.phone));
@@ -92,8 +130,4 @@ pub fn run(a: &PhoneArgs) -> anyhow::Result<()> {
         report.worst_exposure_matched_psnr_loss_db,
         report.worst_chamfer_increase_mm
     );
-    if a.json {
-        println!("{}", serde_json::to_string(&report)?);
-    }
-    Ok(())
 }
