@@ -198,3 +198,17 @@ pub fn tiny_scene() -> Scene<NeusField> {
         objects,
     }
 }
+
+/// Copies the folder `from` into `to`, recursively (plain files and folders; panics on any error).
+pub fn copy_folder(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_folder(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), &target).unwrap();
+        }
+    }
+}

@@ -180,9 +180,12 @@ pub fn bench_phone(
     note: &mut dyn FnMut(&str),
 ) -> anyhow::Result<PhoneBenchReport> {
     let room = crate::read_room(&spec.room)?;
-    let phone_room = spec
-        .cache
-        .join(format!("{}-phone-seed{}", room.name, spec.seed));
+    let phone_room = spec.cache.join(format!(
+        "{}-phone-r{}-seed{}",
+        room.name,
+        neuroom_synth::phone::PHONE_MODEL_REVISION,
+        spec.seed
+    ));
     if !phone_room.join("room.json").is_file() {
         note(&format!("degrading into {}", phone_room.display()));
         crate::degrade::degrade_room(&spec.room, &phone_room, spec.seed, &mut |_, _| {})?;

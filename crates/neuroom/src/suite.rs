@@ -15,6 +15,7 @@ use sha2::{Digest, Sha256};
 use crate::locate::{LocateConfig, LocateMean, PanoramaScore, bench_locate};
 use crate::train::{RefineWhen, TrainOptions, TrainProgress, train_room};
 use neuroom_core::camera_effects::CameraEffect;
+use neuroom_core::formats::Capture;
 use neuroom_fit::FitConfig;
 
 /// The step budgets the suite trains every room with. Counted in steps, not seconds, so the same
@@ -155,9 +156,10 @@ pub fn suite_rooms(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 /// The cache folder of `room`'s models under `cache`: keyed by the training configuration, the
-/// training code's revision ([`neuroom_train::TRAINING_REVISION`]) and the bytes of room.json and of
-/// every capture's transforms.json, so changed budgets, a build that trains other bits or a
-/// regenerated room train anew instead of reusing stale models. The per-frame corrections' settings
+/// training code's revision ([`neuroom_train::TRAINING_REVISION`]) and the bytes of room.json, of
+/// every capture's transforms.json and of every frame's image, depth map and mask, so changed
+/// budgets, a build that trains other bits or a regenerated room (its poses kept or not) train anew
+/// instead of reusing stale models. The per-frame corrections' settings
 /// are left out of a configuration's serialised form while they are the defaults; a room whose
 /// captures come from a phone (corrections learned) is keyed by them too, so a change of those
 /// defaults retrains it.
@@ -197,8 +199,9 @@ fn cached_models_dir_of_revision(
         let bytes =
             std::fs::read(&transforms).with_context(|| format!("{}", transforms.display()))?;
         hash.update(&bytes);
-        let device = neuroom_core::formats::parse_capture(&transforms, &bytes)?.device;
-        corrected |= device.auto_exposure || device.tracked_poses;
+        let parsed = neuroom_core::formats::parse_capture(&transforms, &bytes)?;
+        hash_frame_files(&mut hash, &room.join(capture), &parsed)?;
+        corrected |= parsed.device.auto_exposure || parsed.device.tracked_poses;
     }
     if corrected {
         hash.update(serde_json::to_vec(&config.frame_refinement)?);
@@ -208,6 +211,21 @@ fn cached_models_dir_of_revision(
         .map(|b| format!("{b:02x}"))
         .collect();
     Ok(cache.join(format!("{}-{key}", parsed.name)))
+}
+
+/// Adds the bytes of every image, depth map and mask of `capture` (in the folder `dir`) to `hash`: a
+/// capture whose frames were rendered or degraded anew under the same poses trains other models.
+fn hash_frame_files(hash: &mut Sha256, dir: &Path, capture: &Capture) -> anyhow::Result<()> {
+    for frame in &capture.frames {
+        let files = std::iter::once(&frame.image)
+            .chain(&frame.depth)
+            .chain(&frame.instance);
+        for file in files {
+            let path = dir.join(file);
+            hash.update(std::fs::read(&path).with_context(|| format!("{}", path.display()))?);
+        }
+    }
+    Ok(())
 }
 
 /// One suite room's models, trained in this run or found in the cache.
@@ -370,6 +388,26 @@ mod tests {
         assert_ne!(at(1), at(0));
         assert_ne!(at(2), at(1));
         assert!(at(1).starts_with(cache.join("")), "{}", at(1).display());
+    }
+
+    #[test]
+    fn a_room_whose_images_changed_caches_into_another_folder() {
+        let scratch = tempfile::tempdir().unwrap();
+        let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("../neuroom-core/tests/rooms/tiny");
+        let room = scratch.path().join("tiny");
+        neuroom_testing::copy_folder(&tiny, &room);
+        let (cache, training) = (Path::new("cache"), SuiteTraining::default());
+        let before = cached_models_dir(cache, &room, &training).unwrap();
+        let spec = crate::read_room(&room).unwrap();
+        let capture = room.join(&spec.background.capture);
+        let frame = &neuroom_core::formats::read_capture(&capture)
+            .unwrap()
+            .frames[0];
+        let image = capture.join(&frame.image);
+        let mut bytes = std::fs::read(&image).unwrap();
+        bytes.push(0);
+        std::fs::write(&image, bytes).unwrap();
+        assert_ne!(cached_models_dir(cache, &room, &training).unwrap(), before);
     }
 
     #[test]

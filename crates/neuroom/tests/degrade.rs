@@ -89,21 +89,6 @@ fn a_room_naming_a_capture_outside_its_folder_is_refused_and_nothing_is_written(
     assert!(!scratch.path().join("shared").exists());
 }
 
-/// Copies the folder `from` to `to` (plain files and folders only).
-#[cfg(unix)]
-fn copy_folder(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let path = entry.unwrap().path();
-        let dest = to.join(path.file_name().unwrap());
-        if path.is_dir() {
-            copy_folder(&path, &dest);
-        } else {
-            std::fs::copy(&path, &dest).unwrap();
-        }
-    }
-}
-
 /// A suite room names its background again under `in_room/` by a relative link: the copy keeps the
 /// link, which then names the degraded background; a link out of the room is copied as its file.
 #[cfg(unix)]
@@ -112,7 +97,7 @@ fn links_inside_the_room_stay_links_and_links_out_of_it_are_copied() {
     use std::os::unix::fs::symlink;
     let scratch = tempfile::tempdir().unwrap();
     let room = scratch.path().join("room");
-    copy_folder(&tiny_room(), &room);
+    neuroom_testing::copy_folder(&tiny_room(), &room);
     let background = formats::read_room(room.join("room.json"))
         .unwrap()
         .background

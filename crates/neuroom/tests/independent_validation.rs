@@ -51,19 +51,6 @@ fn synth_tiny(seed: u64) -> tempfile::TempDir {
     dir
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    fs::create_dir_all(to).unwrap();
-    for entry in fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let target = to.join(entry.file_name());
-        if entry.file_type().unwrap().is_dir() {
-            copy_dir(&entry.path(), &target);
-        } else {
-            fs::copy(entry.path(), &target).unwrap();
-        }
-    }
-}
-
 fn read_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -186,7 +173,7 @@ fn the_validator_rejects_broken_rooms() {
     ];
     for (what, expected, mutate) in mutations {
         let copy = tempfile::tempdir().unwrap();
-        copy_dir(source.path(), copy.path());
+        neuroom_testing::copy_folder(source.path(), copy.path());
         mutate(copy.path());
         let (code, text) = validate(copy.path(), &["--max-frames", "3", "--quiet"]);
         assert_eq!(

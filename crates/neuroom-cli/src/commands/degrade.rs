@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use crate::progress::StageBars;
 
-/// Write a copy of a room whose captures look as a phone delivers them: LiDAR depth at 1/7.5 of the
-/// colour's resolution with centimetre noise and holes on edges, poses off by 1–2 cm and 0.5–1°,
+/// Write a copy of a room whose captures look as a phone delivers them: LiDAR depth on a 256 × 192
+/// grid over the frame's view with centimetre noise and holes on edges, poses off by 1–2 cm and 0.5–1°,
 /// every frame exposed (±½ stop) and white-balanced on its own, 30 % of them blurred by motion, all
 /// through JPEG 85. Panoramas, ground truth and meshes are copied unchanged. The same seed writes
 /// the same files.
