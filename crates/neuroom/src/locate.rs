@@ -303,13 +303,26 @@ fn cloud_lights(loaded: &RoomModels, light: Option<&str>) -> anyhow::Result<Vec<
 const CARVE_TOLERANCE: f32 = 0.02;
 
 /// What the frames of `object`'s capture saw of its model's free space (model frame), for [`carve`];
-/// none when the room folder holds no such capture (models shipped without their captures).
+/// none when the room folder holds no such capture (models shipped without their captures) or when
+/// its poses came from a phone's tracker: those are off by one or two centimetres and a degree, so
+/// near every silhouette a frame sees through where the object stands, and carving by them wears
+/// the clouds away (their corrections live in the model's training, not in the capture). Noisy depth
+/// leaves free only what lies in front of its spread: two of the noise's standard deviations.
 fn free_space(room: &Room, object: &RoomObject, ids: &[u16]) -> anyhow::Result<Vec<FreeSpace>> {
     let dir = room.capture_dir(&object.capture);
     if !dir.join(formats::transforms::TRANSFORMS_FILE).is_file() {
         return Ok(Vec::new());
     }
     let capture = formats::read_capture(&dir)?;
+    if capture.device.tracked_poses {
+        return Ok(Vec::new());
+    }
+    let spread = |d: f32| {
+        capture
+            .device
+            .depth_noise
+            .map_or(0.0, |noise| 2.0 * noise.sigma_at(d))
+    };
     let role = Role::Object {
         ids: ids.to_vec(),
         capture_to_object: object.capture_to_object,
@@ -325,7 +338,7 @@ fn free_space(room: &Room, object: &RoomObject, ids: &[u16]) -> anyhow::Result<V
                 .zip(&view.distance)
                 .map(|(class, d)| match class {
                     PixelClass::Empty => f32::INFINITY,
-                    PixelClass::Surface => *d,
+                    PixelClass::Surface => (*d - spread(*d)).max(0.0),
                     PixelClass::Ignored => 0.0,
                 })
                 .collect(),
@@ -1550,5 +1563,56 @@ mod tests {
         let seated = seated_on_supporters(&initial, &solved, kept, &supporters);
         let z3 = seated.objects[2].object_to_world.translation.z;
         assert!((z3 - 0.91).abs() < 1e-12, "{z3}");
+    }
+}
+
+#[cfg(test)]
+mod free_space_tests {
+    use super::*;
+
+    /// A copy of the tiny room whose first object's capture says `tracked_poses` and declares the
+    /// depth noise `noise`, with that object.
+    fn tiny_room_with(
+        tracked: bool,
+        noise: Option<formats::DepthNoise>,
+    ) -> (tempfile::TempDir, Room) {
+        let scratch = tempfile::tempdir().unwrap();
+        let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("../neuroom-core/tests/rooms/tiny");
+        neuroom_testing::copy_folder(&tiny, scratch.path());
+        let room = crate::read_room(scratch.path()).unwrap();
+        let dir = room.capture_dir(&room.objects[0].capture);
+        let mut capture = formats::read_capture(&dir).unwrap();
+        capture.device.tracked_poses = tracked;
+        capture.device.depth_noise = noise;
+        formats::write_capture(&dir, &capture).unwrap();
+        (scratch, room)
+    }
+
+    #[test]
+    fn tracked_poses_carve_nothing_and_noisy_depth_frees_less() {
+        let free = |tracked, noise| {
+            let (_scratch, room) = tiny_room_with(tracked, noise);
+            let object = &room.objects[0];
+            free_space(&room, object, &[object.id]).unwrap()
+        };
+        let exact = free(false, None);
+        assert!(!exact.is_empty());
+        assert!(
+            free(true, None).is_empty(),
+            "a tracker's poses carve nothing"
+        );
+        let noisy = free(false, Some(formats::DepthNoise::PHONE_LIDAR));
+        let surface = |views: &[FreeSpace]| -> Vec<f32> {
+            views
+                .iter()
+                .flat_map(|v| v.free.iter().copied().filter(|f| f.is_finite() && *f > 0.0))
+                .collect()
+        };
+        let (exact, noisy) = (surface(&exact), surface(&noisy));
+        assert_eq!(exact.len(), noisy.len());
+        for (e, n) in exact.iter().zip(&noisy) {
+            let spread = 2.0 * formats::DepthNoise::PHONE_LIDAR.sigma_at(*e);
+            assert!((e - n - spread).abs() < 1e-5, "{e} → {n}");
+        }
     }
 }
