@@ -32,24 +32,10 @@ fn scratch(case: &str) -> PathBuf {
     dir
 }
 
-/// Copies the folder `from` into `to`, recursively.
-fn copy_dir(from: &Path, to: &Path) {
-    fs::create_dir_all(to).unwrap();
-    for entry in fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let target = to.join(entry.file_name());
-        if entry.file_type().unwrap().is_dir() {
-            copy_dir(&entry.path(), &target);
-        } else {
-            fs::copy(entry.path(), &target).unwrap();
-        }
-    }
-}
-
 /// A copy of the tiny room, for one case to break.
 fn room_copy(case: &str) -> PathBuf {
     let room = scratch(case).join("room");
-    copy_dir(&tiny_room(), &room);
+    neuroom_testing::copy_folder(&tiny_room(), &room);
     room
 }
 

@@ -1,7 +1,7 @@
 //! What a phone delivers instead of a renderer's exact capture: LiDAR depth on its own coarse grid
-//! (256 × 192 over the colour frame's view), noisy and with holes; poses off by what visual-inertial tracking drifts;
-//! every frame auto-exposed and white-balanced on its own, some blurred by the hand's motion, all
-//! written as JPEG. [`PhoneModel::degrade_frame`] turns one exact frame into such a frame, from a
+//! (256 × 192 over the colour frame's view), noisy and with holes; poses off by what
+//! visual-inertial tracking drifts; every frame auto-exposed and white-balanced on its own, some
+//! blurred by the hand's motion, all written as JPEG. [`PhoneModel::degrade_frame`] turns one exact frame into such a frame, from a
 //! seed, so the same seed gives the same degraded room.
 
 use glam::{DMat3, DVec3};

@@ -381,26 +381,23 @@ pub fn exposure_matched_error(
 ) -> ViewScore {
     let width = view.camera.width as usize;
     let white = |i: usize| (i % width + i / width).is_multiple_of(2);
-    let surface = |i: &usize| view.class[*i] == PixelClass::Surface;
-    let gains = |in_half: bool| {
-        let mut sums = [[0.0f64; 2]; 3];
-        for i in (0..view.rgb.len())
-            .filter(surface)
-            .filter(|&i| white(i) == in_half)
-        {
-            for (c, sum) in sums.iter_mut().enumerate() {
-                let (r, t) = (rendered[i][c] as f64, target[i][c] as f64);
-                sum[0] += r * t;
-                sum[1] += r * r;
-            }
+    let surface: Vec<usize> = (0..view.rgb.len())
+        .filter(|&i| view.class[i] == PixelClass::Surface)
+        .collect();
+    // Per half (indexed by `white(i)`) and channel: Σ rendered · target and Σ rendered².
+    let mut sums = [[[0.0f64; 2]; 3]; 2];
+    for &i in &surface {
+        for (c, sum) in sums[usize::from(white(i))].iter_mut().enumerate() {
+            let (r, t) = (rendered[i][c] as f64, target[i][c] as f64);
+            sum[0] += r * t;
+            sum[1] += r * r;
         }
-        sums.map(|[rt, rr]| if rr > 0.0 { rt / rr } else { 1.0 })
-    };
-    // Indexed by `white(i)`: a white pixel takes the black squares' gains, and the other way round.
-    let crossed = [gains(true), gains(false)];
+    }
+    let gains = sums.map(|half| half.map(|[rt, rr]| if rr > 0.0 { rt / rr } else { 1.0 }));
     let mut s = ViewScore::default();
-    for i in (0..view.rgb.len()).filter(surface) {
-        let gain = crossed[usize::from(white(i))];
+    for &i in &surface {
+        // A pixel of one half takes the gains fitted on the other.
+        let gain = gains[usize::from(!white(i))];
         for c in 0..3 {
             let matched = (rendered[i][c] as f64 * gain[c]).clamp(0.0, 1.0);
             let e = matched - target[i][c] as f64;

@@ -159,10 +159,9 @@ pub fn suite_rooms(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
 /// training code's revision ([`neuroom_train::TRAINING_REVISION`]) and the bytes of room.json, of
 /// every capture's transforms.json and of every frame's image, depth map and mask, so changed
 /// budgets, a build that trains other bits or a regenerated room (its poses kept or not) train anew
-/// instead of reusing stale models. The per-frame corrections' settings
-/// are left out of a configuration's serialised form while they are the defaults; a room whose
-/// captures come from a phone (corrections learned) is keyed by them too, so a change of those
-/// defaults retrains it.
+/// instead of reusing stale models. The per-frame corrections' settings are left out of a
+/// configuration's serialised form while they are the defaults; a room whose captures come from a
+/// phone (corrections learned) is keyed by them too, so a change of those defaults retrains it.
 pub fn cached_models_dir(
     cache: &Path,
     room: &Path,

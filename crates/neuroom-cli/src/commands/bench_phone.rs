@@ -63,18 +63,19 @@ fn figures(f: &HeldOutFigures) -> String {
 
 /// Runs the benchmark.
 pub fn run(a: &PhoneArgs) -> anyhow::Result<()> {
+    let training = SuiteTraining {
+        object_steps: a.object_steps,
+        background_steps: a.background_steps,
+        threads: a.threads,
+        frame_corrections: a.frame_corrections.into(),
+        ..SuiteTraining::default()
+    };
     let mut reports = Vec::with_capacity(a.rooms.len());
     for room in &a.rooms {
         let spec = PhoneBenchSpec {
             room: room.clone(),
             cache: a.cache.clone(),
-            training: SuiteTraining {
-                object_steps: a.object_steps,
-                background_steps: a.background_steps,
-                threads: a.threads,
-                frame_corrections: a.frame_corrections.into(),
-                ..SuiteTraining::default()
-            },
+            training: training.clone(),
             seed: a.seed,
             locate: (!a.no_locate).then(LocateConfig::default),
         };
