@@ -119,6 +119,7 @@ pub fn tiny_models() -> RoomModels {
     RoomModels {
         manifest,
         fields: vec![room, ball, stool],
+        refined_poses: vec![None; 3],
     }
 }
 

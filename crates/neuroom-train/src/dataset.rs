@@ -57,7 +57,8 @@ impl Role {
         }
     }
 
-    fn capture_to_model(&self) -> Pose {
+    /// Maps the capture's frame into the model's: the object's canonical frame, or the world.
+    pub(crate) fn capture_to_model(&self) -> Pose {
         match self {
             Role::Background => Pose::IDENTITY,
             Role::Object {

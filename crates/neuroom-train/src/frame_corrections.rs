@@ -27,6 +27,8 @@
 //! their place.
 
 use glam::{Mat3, Vec3};
+use neuroom_core::Pose;
+use neuroom_core::formats::{Capture, RefinedFrame, RefinedPoses};
 use neuroom_field::{AdamConfig, AdamUpdate};
 use serde::{Deserialize, Serialize};
 
@@ -160,6 +162,47 @@ impl FrameCorrections {
     /// The corrected direction of a ray of frame `frame` that the capture gives as `dir`.
     pub fn direction(&self, frame: usize, dir: Vec3) -> Vec3 {
         self.rotations[frame] * dir
+    }
+
+    /// The rigid motion frame `frame`'s correction applies to its rays (model frame): what maps
+    /// a point `x₀` of its rays to `p + R (x₀ − p) + τ`. A camera-to-model pose composed after it
+    /// gives the corrected camera.
+    pub fn motion(&self, frame: usize) -> Pose {
+        let p = Vec3::from(self.pivots[frame]).as_dvec3();
+        let r = self.rotations[frame].as_dmat3();
+        let shift = p - r * p + self.vec3(frame, TRANSLATION).as_dvec3();
+        Pose::new(r, shift)
+    }
+
+    /// The poses of `capture`'s training frames as corrected, in the capture's frame: training frame
+    /// `k` is the capture's frame `frame_index[k]`, and `capture_to_model` maps the capture into the
+    /// model frame the corrections live in. `None` when the poses are not corrected.
+    pub fn refined_poses(
+        &self,
+        capture: &Capture,
+        capture_to_model: Pose,
+        frame_index: &[usize],
+    ) -> Option<RefinedPoses> {
+        if !self.corrected.pose {
+            return None;
+        }
+        let model_to_capture = capture_to_model.inverse();
+        let frames = frame_index
+            .iter()
+            .enumerate()
+            .map(|(k, &index)| {
+                let frame = &capture.frames[index];
+                let camera_to_model = capture_to_model.compose(&frame.camera_to_world);
+                RefinedFrame {
+                    index,
+                    image: frame.image.clone(),
+                    camera_to_world: model_to_capture
+                        .compose(&self.motion(k).compose(&camera_to_model))
+                        .orthonormalized(),
+                }
+            })
+            .collect();
+        Some(RefinedPoses { frames })
     }
 
     /// The colour gain per channel of frame `frame`.
@@ -530,6 +573,25 @@ mod tests {
         assert_eq!(s.frames, 3);
         assert!((s.max_translation_m - error[0].length()).abs() < 1e-3);
         assert_eq!(s.gain_range, [1.0, 1.0]);
+    }
+
+    #[test]
+    fn motion_moves_rays_as_the_corrections_do() {
+        let mut c = FrameCorrections::new(
+            anchors(&[Vec3::new(0.1, 0.3, -0.5)]),
+            Corrected {
+                colour: false,
+                pose: true,
+            },
+        );
+        c.params[..6].copy_from_slice(&[0.04, -0.03, 0.02, 0.01, -0.02, 0.015]);
+        c.refresh_rotations();
+        let motion = c.motion(0);
+        let (origin, dir) = (Vec3::new(0.2, -0.1, 0.4), Vec3::new(0.3, 0.5, -0.8));
+        let moved = motion.transform_point(origin.as_dvec3()).as_vec3();
+        assert!((moved - c.origin(0, origin)).length() < 1e-6);
+        let turned = motion.transform_vector(dir.as_dvec3()).as_vec3();
+        assert!((turned - c.direction(0, dir)).length() < 1e-6);
     }
 
     #[test]

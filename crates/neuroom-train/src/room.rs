@@ -24,7 +24,10 @@ use crate::progress::Progress;
 use crate::reuse::check_saved_budget;
 use crate::trainer::{LightCodes, ModelKind, Trainer, field_config};
 use neuroom_core::FormatError;
-use neuroom_core::formats::{Room, atomic_write, read_capture, read_room};
+use neuroom_core::formats::{
+    REFINED_POSES_FILE, RefinedPoses, Room, atomic_write, read_capture, read_refined_poses,
+    read_room, write_refined_poses,
+};
 use neuroom_core::mesh::read_ply;
 use neuroom_core::surface::{Chamfer, chamfer};
 use neuroom_field::NeusField;
@@ -471,6 +474,7 @@ pub fn train_model(
             frame_corrections: trainer.corrections().map(FrameCorrections::summary),
         },
     };
+    write_refined_poses_of(spec, &data, trainer.corrections(), model_dir)?;
     let mut meta = trainer.trainer_json();
     meta["entry"] = serde_json::to_value(&entry).map_err(|e| TrainError::File {
         path: model_dir.join("config.json"),
@@ -480,6 +484,31 @@ pub fn train_model(
     let _ = std::fs::remove_dir_all(&ckpt);
     let _ = std::fs::remove_file(model_dir.join("adam.safetensors"));
     Ok((entry, trainer.field))
+}
+
+/// Writes the corrected poses of `spec`'s training frames beside its model (`refined_poses.json`)
+/// when training corrected them, and takes away a file of an earlier training that did not.
+fn write_refined_poses_of(
+    spec: &ModelSpec,
+    data: &Dataset,
+    corrections: Option<&FrameCorrections>,
+    model_dir: &Path,
+) -> Result<(), TrainError> {
+    let path = model_dir.join(REFINED_POSES_FILE);
+    let capture = read_capture(&spec.capture)?;
+    let refined = corrections
+        .and_then(|c| c.refined_poses(&capture, spec.role.capture_to_model(), &data.frame_index));
+    match refined {
+        Some(poses) => write_refined_poses(&path, &poses)?,
+        None if path.exists() => {
+            std::fs::remove_file(&path).map_err(|e| TrainError::File {
+                path: path.clone(),
+                message: format!("cannot remove a stale file: {e}"),
+            })?;
+        }
+        None => {}
+    }
+    Ok(())
 }
 
 /// A trained model scored on the held-out views of `spec`'s capture, which need not be the capture
@@ -556,6 +585,9 @@ pub struct RoomModels {
     pub manifest: Manifest,
     /// One field per manifest entry, in the same order.
     pub fields: Vec<NeusField<f32>>,
+    /// Per manifest entry, the corrected poses of its capture's training frames, when training
+    /// corrected them (`refined_poses.json` in the model's folder).
+    pub refined_poses: Vec<Option<RefinedPoses>>,
 }
 
 impl RoomModels {
@@ -598,7 +630,8 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest, TrainError> {
     Ok(manifest)
 }
 
-/// Reads a room's model folder (`<models>/<room>`): the manifest and every model it lists.
+/// Reads a room's model folder (`<models>/<room>`): the manifest, every model it lists and their
+/// refined capture poses.
 pub fn load_room_models(dir: &Path) -> Result<RoomModels, TrainError> {
     let manifest = read_manifest(dir)?;
     let fields = manifest
@@ -606,5 +639,19 @@ pub fn load_room_models(dir: &Path) -> Result<RoomModels, TrainError> {
         .iter()
         .map(|m| checkpoint::load(&dir.join(&m.path)).map(|(f, _, _)| f))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(RoomModels { manifest, fields })
+    let refined_poses = manifest
+        .models
+        .iter()
+        .map(|m| {
+            let path = dir.join(&m.path).join(REFINED_POSES_FILE);
+            path.is_file()
+                .then(|| read_refined_poses(&path))
+                .transpose()
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(RoomModels {
+        manifest,
+        fields,
+        refined_poses,
+    })
 }

@@ -10,7 +10,7 @@ use glam::Vec3;
 use neuroom_core::camera::{Equirect, Pinhole};
 use neuroom_core::camera_effects::CameraEffect;
 use neuroom_core::formats::{
-    self, ArrangedObject, Arrangement, Room, RoomObject, read_rgb, read_room,
+    self, ArrangedObject, Arrangement, RefinedPoses, Room, RoomObject, read_rgb, read_room,
 };
 use neuroom_core::image::{RgbImage, linear_to_srgb};
 use neuroom_core::metrics::ArrangementScore;
@@ -258,7 +258,7 @@ pub fn object_models(
             // object: the clouds stop a little beyond the box.
             let extent = (half + CLOUD_MARGIN).min(bounds);
             let field = &loaded.fields[k];
-            let free = free_space(room, first, &entry.ids)?;
+            let free = free_space(room, first, &entry.ids, loaded.refined_poses[k].as_ref())?;
             let codes = CodeSet {
                 light: Codes::Fixed(light_code(entry, light)?),
                 ..CodeSet::default()
@@ -303,19 +303,29 @@ fn cloud_lights(loaded: &RoomModels, light: Option<&str>) -> anyhow::Result<Vec<
 const CARVE_TOLERANCE: f32 = 0.02;
 
 /// What the frames of `object`'s capture saw of its model's free space (model frame), for [`carve`];
-/// none when the room folder holds no such capture (models shipped without their captures) or when
-/// its poses came from a phone's tracker: those are off by one or two centimetres and a degree, so
-/// near every silhouette a frame sees through where the object stands, and carving by them wears
-/// the clouds away (their corrections live in the model's training, not in the capture). Noisy depth
-/// leaves free only what lies in front of its spread: two of the noise's standard deviations.
-fn free_space(room: &Room, object: &RoomObject, ids: &[u16]) -> anyhow::Result<Vec<FreeSpace>> {
+/// none when the room folder holds no such capture (models shipped without their captures). A
+/// phone's tracker leaves its poses off by one or two centimetres and a degree, so near every
+/// silhouette a frame sees through where the object stands and carving by them wears the clouds
+/// away: a capture with `tracked_poses` carves by the poses training refined (`refined`, its
+/// training frames alone), which agree with the model's geometry, and carves nothing without them.
+/// Noisy depth leaves free only what lies in front of its spread: two of the noise's standard
+/// deviations.
+fn free_space(
+    room: &Room,
+    object: &RoomObject,
+    ids: &[u16],
+    refined: Option<&RefinedPoses>,
+) -> anyhow::Result<Vec<FreeSpace>> {
     let dir = room.capture_dir(&object.capture);
     if !dir.join(formats::transforms::TRANSFORMS_FILE).is_file() {
         return Ok(Vec::new());
     }
-    let capture = formats::read_capture(&dir)?;
+    let mut capture = formats::read_capture(&dir)?;
     if capture.device.tracked_poses {
-        return Ok(Vec::new());
+        match refined {
+            Some(refined) => capture.frames = refined_frames(&capture, refined)?,
+            None => return Ok(Vec::new()),
+        }
     }
     let spread = |d: f32| {
         capture
@@ -344,6 +354,38 @@ fn free_space(room: &Room, object: &RoomObject, ids: &[u16]) -> anyhow::Result<V
                 .collect(),
         })
         .collect())
+}
+
+/// The frames of `capture` that `refined` lists, at their refined poses; an error when `refined`
+/// names frames the capture does not hold (a model trained on another recording).
+fn refined_frames(
+    capture: &formats::Capture,
+    refined: &RefinedPoses,
+) -> anyhow::Result<Vec<formats::Frame>> {
+    refined
+        .frames
+        .iter()
+        .map(|r| {
+            let frame = capture
+                .frames
+                .get(r.index)
+                .filter(|f| f.image == r.image)
+                .with_context(|| {
+                    format!(
+                        "the model's {} names frame {} `{}`, which {} does not hold: the model was \
+                         trained on another recording of it; train it again",
+                        formats::REFINED_POSES_FILE,
+                        r.index,
+                        r.image.display(),
+                        capture.dir.display()
+                    )
+                })?;
+            Ok(formats::Frame {
+                camera_to_world: r.camera_to_world,
+                ..frame.clone()
+            })
+        })
+        .collect()
 }
 
 /// Where an object with room.json's `relations` may stand.
@@ -1588,19 +1630,57 @@ mod free_space_tests {
         (scratch, room)
     }
 
+    /// The capture's frames `indices` at their poses turned by `yaw` about the vertical.
+    fn refined(room: &Room, indices: &[usize], yaw: f64) -> RefinedPoses {
+        let capture = formats::read_capture(room.capture_dir(&room.objects[0].capture)).unwrap();
+        let turn = Pose::from_yaw_translation(yaw, glam::DVec3::ZERO);
+        RefinedPoses {
+            frames: indices
+                .iter()
+                .map(|&index| formats::RefinedFrame {
+                    index,
+                    image: capture.frames[index].image.clone(),
+                    camera_to_world: turn.compose(&capture.frames[index].camera_to_world),
+                })
+                .collect(),
+        }
+    }
+
     #[test]
-    fn tracked_poses_carve_nothing_and_noisy_depth_frees_less() {
+    fn tracked_poses_carve_by_their_refined_poses_alone() {
+        let (_scratch, room) = tiny_room_with(true, None);
+        let object = &room.objects[0];
+        let ids = [object.id];
+        let free = |refined: Option<&RefinedPoses>| free_space(&room, object, &ids, refined);
+        assert!(
+            free(None).unwrap().is_empty(),
+            "a tracker's poses carve nothing"
+        );
+        let refined = refined(&room, &[1], 0.1);
+        let views = free(Some(&refined)).unwrap();
+        assert_eq!(views.len(), 1, "the refined frames alone");
+        let capture = formats::read_capture(room.capture_dir(&object.capture)).unwrap();
+        let expected = object
+            .capture_to_object
+            .compose(&refined.frames[0].camera_to_world);
+        let got = views[0].camera_to_model;
+        assert!((got.translation - expected.translation).length() < 1e-9);
+        assert!(capture.frames.len() > 1);
+        let mut other = refined.clone();
+        other.frames[0].image = "images/elsewhere.png".into();
+        let err = free(Some(&other)).unwrap_err().to_string();
+        assert!(err.contains("another recording"), "{err}");
+    }
+
+    #[test]
+    fn exact_captures_carve_and_noisy_depth_frees_less() {
         let free = |tracked, noise| {
             let (_scratch, room) = tiny_room_with(tracked, noise);
             let object = &room.objects[0];
-            free_space(&room, object, &[object.id]).unwrap()
+            free_space(&room, object, &[object.id], None).unwrap()
         };
         let exact = free(false, None);
         assert!(!exact.is_empty());
-        assert!(
-            free(true, None).is_empty(),
-            "a tracker's poses carve nothing"
-        );
         let noisy = free(false, Some(formats::DepthNoise::PHONE_LIDAR));
         let surface = |views: &[FreeSpace]| -> Vec<f32> {
             views

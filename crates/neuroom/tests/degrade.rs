@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use neuroom::degrade::degrade_room;
 use neuroom::formats::{self, read_capture};
+use neuroom::train::TrainQuiet;
 
 fn tiny_room() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../neuroom-core/tests/rooms/tiny")
@@ -126,4 +127,40 @@ fn links_inside_the_room_stay_links_and_links_out_of_it_are_copied() {
         std::fs::read_to_string(out.join("notes.txt")).unwrap(),
         "outside"
     );
+}
+
+#[test]
+fn training_a_phone_copy_writes_the_refined_poses_of_its_training_frames() {
+    let scratch = tempfile::tempdir().unwrap();
+    let copy = scratch.path().join("copy");
+    degrade_room(&tiny_room(), &copy, 3, &mut |_, _| {}).unwrap();
+    let options = neuroom::train::TrainOptions::steps_only(40, 40, 0, 2);
+    let trained =
+        neuroom::train::train_room(&copy, &scratch.path().join("models"), &options, &TrainQuiet)
+            .unwrap();
+    let models = neuroom::scene::load_models(&trained.dir).unwrap();
+    let room = formats::read_room(copy.join("room.json")).unwrap();
+    for (entry, refined) in models.manifest.models.iter().zip(&models.refined_poses) {
+        let refined = refined
+            .as_ref()
+            .expect("a tracked capture's poses are refined");
+        let capture_dir = match entry.ids.first() {
+            Some(id) => &room.objects.iter().find(|o| o.id == *id).unwrap().capture,
+            None => &room.background.capture,
+        };
+        let capture = read_capture(copy.join(capture_dir)).unwrap();
+        let holdout = options.config().holdout;
+        let training: Vec<usize> = (0..capture.frames.len())
+            .filter(|i| i % holdout != 0)
+            .collect();
+        let indices: Vec<usize> = refined.frames.iter().map(|f| f.index).collect();
+        assert_eq!(indices, training, "{}", entry.name);
+        for f in &refined.frames {
+            let given = &capture.frames[f.index];
+            assert_eq!(f.image, given.image);
+            let cm = (f.camera_to_world.translation - given.camera_to_world.translation).length()
+                * 100.0;
+            assert!(cm < 5.0, "{}: frame {} moved {cm} cm", entry.name, f.index);
+        }
+    }
 }

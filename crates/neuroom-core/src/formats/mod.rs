@@ -1,4 +1,5 @@
-//! The on-disk formats of `docs/formats.md`: rooms, captures, arrangements, images and environment maps.
+//! The on-disk formats of `docs/formats.md`: rooms, captures, arrangements, refined capture poses, images
+//! and environment maps.
 //!
 //! Every reader validates what it reads and fails with a [`FormatError`] naming the
 //! file and the field at fault; readers ignore fields they do not know. Every writer goes through
@@ -9,6 +10,7 @@ pub mod base64;
 pub mod envmap;
 pub mod images;
 pub mod json;
+pub mod refined_poses;
 pub mod room;
 pub mod tensor_file;
 pub mod transforms;
@@ -22,6 +24,9 @@ pub use images::{
     Conversion, Decoded, MAX_IMAGE_SIDE, check_same_size, decode_depth, decode_image_size,
     decode_mask, decode_rgb, decode_rgba, read_colour_photo, read_depth, read_image_size,
     read_mask, read_panorama, read_rgb, read_rgba, write_depth, write_mask, write_rgb, write_rgba,
+};
+pub use refined_poses::{
+    REFINED_POSES_FILE, RefinedFrame, RefinedPoses, read_refined_poses, write_refined_poses,
 };
 pub use room::{BackgroundSpec, Room, RoomObject, parse_room, read_room, write_room};
 pub use tensor_file::canonical_safetensors;
