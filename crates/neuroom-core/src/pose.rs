@@ -161,6 +161,44 @@ impl Pose {
         let x = self.rotation.x_axis;
         x.y.atan2(x.x)
     }
+
+    /// The rigid transform that best maps the points `from` onto their partners `to` in the least
+    /// squares sense (Kabsch's solution, no scale), as trajectories are aligned before their error is
+    /// measured. `None` for fewer than three pairs, lists of different lengths, or points that
+    /// all lie on one line.
+    pub fn aligning(from: &[DVec3], to: &[DVec3]) -> Option<Self> {
+        if from.len() != to.len() || from.len() < 3 {
+            return None;
+        }
+        let n = from.len() as f64;
+        let (cf, ct) = (from.iter().sum::<DVec3>() / n, to.iter().sum::<DVec3>() / n);
+        let mut cov = nalgebra::Matrix3::<f64>::zeros();
+        for (f, t) in from.iter().zip(to) {
+            let (a, b) = (*f - cf, *t - ct);
+            cov += nalgebra::Vector3::new(b.x, b.y, b.z) * nalgebra::RowVector3::new(a.x, a.y, a.z);
+        }
+        let svd = cov.svd(true, true);
+        let (u, v_t) = (svd.u?, svd.v_t?);
+        let mut sorted = svd.singular_values.as_slice().to_vec();
+        sorted.sort_by(f64::total_cmp);
+        if sorted[1] <= 1e-12 * sorted[2].max(1e-300) {
+            return None;
+        }
+        let flip = (u * v_t).determinant().signum();
+        let r = u * nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 1.0, flip)) * v_t;
+        let rotation = DMat3::from_cols_array(&[
+            r[(0, 0)],
+            r[(1, 0)],
+            r[(2, 0)],
+            r[(0, 1)],
+            r[(1, 1)],
+            r[(2, 1)],
+            r[(0, 2)],
+            r[(1, 2)],
+            r[(2, 2)],
+        ]);
+        Some(Self::new(rotation, ct - rotation * cf))
+    }
 }
 
 #[cfg(test)]
@@ -180,6 +218,29 @@ mod tests {
         assert!((q.transform_point(x) - p.transform_point(x)).length() < 1e-12);
         assert!((p.inverse().transform_point(p.transform_point(x)) - x).length() < 1e-12);
         assert!((p.compose(&p.inverse()).translation).length() < 1e-12);
+    }
+
+    #[test]
+    fn aligning_recovers_a_rigid_motion_and_refuses_a_line() {
+        let motion = Pose::new(
+            DMat3::from_euler(glam::EulerRot::ZYX, 0.4, 0.1, -0.3),
+            DVec3::new(0.5, -1.0, 2.0),
+        );
+        let from: Vec<DVec3> = (0..7)
+            .map(|k| {
+                let k = k as f64;
+                DVec3::new(k.cos(), (1.3 * k).sin(), 0.1 * k * k)
+            })
+            .collect();
+        let to: Vec<DVec3> = from.iter().map(|&p| motion.transform_point(p)).collect();
+        let found = Pose::aligning(&from, &to).unwrap();
+        for (f, t) in from.iter().zip(&to) {
+            assert!((found.transform_point(*f) - *t).length() < 1e-9);
+        }
+        assert!((found.rotation.determinant() - 1.0).abs() < 1e-9);
+        let line: Vec<DVec3> = (0..5).map(|k| DVec3::X * k as f64).collect();
+        assert!(Pose::aligning(&line, &line).is_none());
+        assert!(Pose::aligning(&from[..2], &to[..2]).is_none());
     }
 
     #[test]

@@ -112,7 +112,7 @@ fn bench_model(
                 trainer.light_codes().capture,
             )
         });
-        let chamfer_m = truth_chamfer(spec, &trainer.field, &field_bounds)?;
+        let chamfer_m = truth_chamfer(spec, &trainer.field, &field_bounds, None)?;
         Ok(ModelBenchReport {
             room: room.to_string(),
             model: spec.name.clone(),

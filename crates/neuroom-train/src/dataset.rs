@@ -123,6 +123,16 @@ pub struct FrameView {
 }
 
 impl FrameView {
+    /// Moves the view by `motion` (model frame): its camera and its normals, which are in the
+    /// model frame; distances along the rays stay.
+    pub fn move_by(&mut self, motion: &Pose) {
+        self.camera_to_model = motion.compose(&self.camera_to_model);
+        let turn = motion.rotation.as_mat3();
+        for n in &mut self.normal {
+            *n = (turn * Vec3::from(*n)).to_array();
+        }
+    }
+
     /// Camera centre in the model frame.
     pub fn origin(&self) -> Vec3 {
         self.camera_to_model.translation.as_vec3()

@@ -23,13 +23,13 @@ use crate::losses::LossParts;
 use crate::progress::Progress;
 use crate::reuse::check_saved_budget;
 use crate::trainer::{LightCodes, ModelKind, Trainer, field_config};
-use neuroom_core::FormatError;
 use neuroom_core::formats::{
     REFINED_POSES_FILE, RefinedPoses, Room, atomic_write, read_capture, read_refined_poses,
     read_room, write_refined_poses,
 };
 use neuroom_core::mesh::read_ply;
 use neuroom_core::surface::{Chamfer, chamfer};
+use neuroom_core::{FormatError, Pose};
 use neuroom_field::NeusField;
 use neuroom_field::checkpoint::{self, CheckpointError};
 use serde::{Deserialize, Serialize};
@@ -444,7 +444,7 @@ pub fn train_model(
             lights.capture,
         )
     });
-    let chamfer_m = truth_chamfer(spec, &trainer.field, &field_bounds)?;
+    let chamfer_m = truth_chamfer(spec, &trainer.field, &field_bounds, None)?;
     let entry = ModelEntry {
         name: spec.name.clone(),
         path: spec.path.clone(),
@@ -515,13 +515,27 @@ fn write_refined_poses_of(
 /// it was trained on: a model trained on a degraded copy of a room is scored on the original's views
 /// and ground-truth mesh, so the two trainings are judged on the same truth. `entry` is the model's
 /// manifest entry (its light codes); no light-code check is run.
+///
+/// A model whose frames' poses were refined keeps the frame its capture's poses average to, which a
+/// tracker leaves a few millimetres and a tenth of a degree from the truth's: `gauge` (capture
+/// frame), when given, maps the truth's poses into the frame the model settled in, and the views and
+/// the ground-truth mesh are moved by it before scoring, as pose-refining methods are judged once
+/// their poses are aligned to the truth's ([`neuroom_core::Pose::aligning`]).
 pub fn evaluate_on_capture(
     spec: &ModelSpec,
     entry: &ModelEntry,
     field: &NeusField<f32>,
     config: &TrainConfig,
+    gauge: Option<Pose>,
 ) -> Result<ModelScore, TrainError> {
-    let (data, _, _) = load_model_data(spec, config)?;
+    let (mut data, _, _) = load_model_data(spec, config)?;
+    let to_model = spec.role.capture_to_model();
+    let moved = gauge.map(|g| to_model.compose(&g).compose(&to_model.inverse()));
+    if let Some(m) = moved {
+        for view in &mut data.held_out {
+            view.move_by(&m);
+        }
+    }
     let eval = (!data.held_out.is_empty()).then(|| {
         evaluate(
             field,
@@ -533,7 +547,7 @@ pub fn evaluate_on_capture(
     });
     Ok(ModelScore {
         eval,
-        chamfer_m: truth_chamfer(spec, field, &entry.bounds)?,
+        chamfer_m: truth_chamfer(spec, field, &entry.bounds, moved)?,
     })
 }
 
@@ -551,16 +565,23 @@ pub const MESH_CELLS: u32 = 192;
 /// Points sampled on each mesh for the Chamfer distance.
 pub const CHAMFER_SAMPLES: usize = 50_000;
 
-/// Chamfer distance between the zero level set of `field` and the spec's ground-truth mesh, when it has one.
+/// Chamfer distance between the zero level set of `field` and the spec's ground-truth mesh, when it
+/// has one; `moved` (model frame), when given, moves the truth first.
 pub fn truth_chamfer(
     spec: &ModelSpec,
     field: &NeusField<f32>,
     bounds: &Aabb,
+    moved: Option<Pose>,
 ) -> Result<Option<Chamfer>, TrainError> {
     let Some(path) = &spec.truth_mesh else {
         return Ok(None);
     };
-    let truth = read_ply(path)?;
+    let mut truth = read_ply(path)?;
+    if let Some(m) = moved {
+        for p in &mut truth.positions {
+            *p = m.transform_point(p.as_dvec3()).as_vec3();
+        }
+    }
     let learned = extract_mesh(field, bounds, MESH_CELLS);
     Ok(Some(chamfer(&learned, &truth, CHAMFER_SAMPLES)))
 }

@@ -6,6 +6,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
+use glam::DVec3;
+use neuroom_core::formats::{Capture, RefinedPoses, read_capture};
+use neuroom_core::pose::Pose;
 use neuroom_field::NeusField;
 use neuroom_train::room::{ModelScore, evaluate_on_capture, load_room_models, model_specs};
 use neuroom_train::{ModelEntry, RoomModels};
@@ -72,6 +75,100 @@ pub struct PhoneModelRow {
     pub clean: HeldOutFigures,
     /// Trained on the phone copy.
     pub phone: HeldOutFigures,
+    /// Trained on the phone copy, scored with the room's views and mesh moved into the frame the
+    /// copy's refined poses settled in ([`alignment_gauge`]); absent without refined poses.
+    #[serde(default)]
+    pub phone_aligned: Option<HeldOutFigures>,
+    /// How far the copy's training frames are from the room's poses, as tracked and as refined.
+    #[serde(default)]
+    pub poses: Option<FramePoseErrors>,
+}
+
+/// How far ahead of each camera the second point of its pair lies in [`alignment_gauge`] (metres):
+/// about where a capture's surfaces are, so the alignment weighs where the frames look as well as
+/// where they stand.
+const GAUGE_LOOK_AHEAD_M: f64 = 1.0;
+
+/// The rigid motion (capture frame) that best maps the room's own poses of the refined frames onto
+/// their refined poses: the frame a model trained on tracked poses settled in, which no phone can
+/// know (corrections are relative). Each frame gives two point pairs, its centre and a point ahead
+/// of it.
+fn alignment_gauge(truth: &Capture, refined: &RefinedPoses) -> Option<Pose> {
+    let pairs = |pose: &Pose| {
+        let ahead = pose.transform_point(DVec3::new(0.0, 0.0, -GAUGE_LOOK_AHEAD_M));
+        [pose.translation, ahead]
+    };
+    let (mut from, mut to) = (Vec::new(), Vec::new());
+    for f in &refined.frames {
+        from.extend(pairs(&truth.frames.get(f.index)?.camera_to_world));
+        to.extend(pairs(&f.camera_to_world));
+    }
+    Pose::aligning(&from, &to)
+}
+
+impl PhoneModelRow {
+    /// The phone copy's figures that judge its training: with the truth aligned when the model
+    /// refined its poses, else as scored.
+    pub fn judged(&self) -> &HeldOutFigures {
+        self.phone_aligned.as_ref().unwrap_or(&self.phone)
+    }
+}
+
+/// The camera error of a capture's frames against the room's own poses, mean over the frames.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CameraPoseError {
+    /// Mean distance of the camera centres (cm).
+    pub position_cm: f64,
+    /// Mean angle between the camera rotations (degrees).
+    pub rotation_deg: f64,
+}
+
+/// A phone copy's training frames against the room's own poses: as the tracker left them and as
+/// training refined them (`refined_poses.json`; absent for a model that wrote none).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FramePoseErrors {
+    /// Frames compared (the model's training frames, or every frame without refined poses).
+    pub frames: usize,
+    /// The copy's capture poses.
+    pub tracked: CameraPoseError,
+    /// The refined poses.
+    pub refined: Option<CameraPoseError>,
+}
+
+impl FramePoseErrors {
+    /// The errors of the phone copy's capture `phone` and of `refined` against the room's capture
+    /// `truth` (frames matched by their index).
+    fn of(truth: &Capture, phone: &Capture, refined: Option<&RefinedPoses>) -> Self {
+        let indices: Vec<usize> = match refined {
+            Some(r) => r.frames.iter().map(|f| f.index).collect(),
+            None => (0..phone.frames.len()).collect(),
+        };
+        let mean_error = |pose: &dyn Fn(usize, usize) -> Pose| {
+            let mut e = CameraPoseError::default();
+            for (k, &i) in indices.iter().enumerate() {
+                let (got, want) = (pose(k, i), truth.frames[i].camera_to_world);
+                e.position_cm += (got.translation - want.translation).length() * 100.0;
+                e.rotation_deg += rotation_angle_deg(&got, &want);
+            }
+            let n = indices.len().max(1) as f64;
+            CameraPoseError {
+                position_cm: e.position_cm / n,
+                rotation_deg: e.rotation_deg / n,
+            }
+        };
+        Self {
+            frames: indices.len(),
+            tracked: mean_error(&|_, i| phone.frames[i].camera_to_world),
+            refined: refined.map(|r| mean_error(&|k, _| r.frames[k].camera_to_world)),
+        }
+    }
+}
+
+/// The angle of the rotation that takes `a`'s orientation to `b`'s (degrees).
+fn rotation_angle_deg(a: &Pose, b: &Pose) -> f64 {
+    let relative = a.rotation.transpose() * b.rotation;
+    let cos = 0.5 * (relative.x_axis.x + relative.y_axis.y + relative.z_axis.z - 1.0);
+    cos.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
 /// What phone data cost.
@@ -89,6 +186,13 @@ pub struct PhoneBenchReport {
     pub worst_exposure_matched_psnr_loss_db: f64,
     /// The largest Chamfer increase of any model (mm).
     pub worst_chamfer_increase_mm: f64,
+    /// The largest exposure-matched PSNR loss with the truth aligned to each refined model's frame
+    /// (the plain one for a model without refined poses): the figure that judges the training.
+    #[serde(default)]
+    pub worst_aligned_psnr_loss_db: f64,
+    /// The largest Chamfer increase with the truth aligned likewise (mm).
+    #[serde(default)]
+    pub worst_aligned_chamfer_increase_mm: f64,
     /// Locate with both rooms' models (absent when the spec asked for the trainings only).
     pub locate: Option<PhoneLocate>,
 }
@@ -115,6 +219,12 @@ pub struct PhoneBenchSummary {
     pub worst_exposure_matched_psnr_loss_db: f64,
     /// The largest Chamfer increase of any model of any room (mm).
     pub worst_chamfer_increase_mm: f64,
+    /// The largest exposure-matched PSNR loss, truth aligned, of any model of any room (dB).
+    #[serde(default)]
+    pub worst_aligned_psnr_loss_db: f64,
+    /// The largest Chamfer increase, truth aligned, of any model of any room (mm).
+    #[serde(default)]
+    pub worst_aligned_chamfer_increase_mm: f64,
     /// Locate over every room's panoramas (absent when the rooms were not located).
     pub locate: Option<PhoneLocateSummary>,
 }
@@ -166,6 +276,8 @@ impl PhoneBenchSummary {
             worst_psnr_loss_db: worst(&|r| r.worst_psnr_loss_db),
             worst_exposure_matched_psnr_loss_db: worst(&|r| r.worst_exposure_matched_psnr_loss_db),
             worst_chamfer_increase_mm: worst(&|r| r.worst_chamfer_increase_mm),
+            worst_aligned_psnr_loss_db: worst(&|r| r.worst_aligned_psnr_loss_db),
+            worst_aligned_chamfer_increase_mm: worst(&|r| r.worst_aligned_chamfer_increase_mm),
             locate,
             rooms,
         }
@@ -206,7 +318,12 @@ pub fn bench_phone(
     let clean = trained(&spec.room, "room")?;
     let phone = trained(&phone_room, "phone copy")?;
     note("scoring the phone copy's models on the room's views and meshes");
-    let models = compare_models(&spec.room, &clean.models, &phone.models, &spec.training)?;
+    let models = compare_models(
+        [&spec.room, &phone_room],
+        &clean.models,
+        &phone.models,
+        &spec.training,
+    )?;
     let locate = match &spec.locate {
         Some(config) => Some(locate_both(
             [(&spec.room, &clean.models), (&phone_room, &phone.models)],
@@ -228,6 +345,12 @@ pub fn bench_phone(
             Some(m.clean.psnr_exposure_matched_db? - m.phone.psnr_exposure_matched_db?)
         }),
         worst_chamfer_increase_mm: worst(&|m| Some(m.phone.chamfer_mm? - m.clean.chamfer_mm?)),
+        worst_aligned_psnr_loss_db: worst(&|m| {
+            Some(m.clean.psnr_exposure_matched_db? - m.judged().psnr_exposure_matched_db?)
+        }),
+        worst_aligned_chamfer_increase_mm: worst(&|m| {
+            Some(m.judged().chamfer_mm? - m.clean.chamfer_mm?)
+        }),
         models,
         locate,
     })
@@ -257,25 +380,45 @@ fn locate_both(
 /// the room's held-out views and meshes (the room's models anew, so that both are scored by the same
 /// code, whatever version wrote their manifest).
 fn compare_models(
-    room: &Path,
+    rooms: [&Path; 2],
     clean: &Path,
     phone: &Path,
     training: &SuiteTraining,
 ) -> anyhow::Result<Vec<PhoneModelRow>> {
-    let specs = model_specs(&crate::read_room(room)?);
+    let specs = model_specs(&crate::read_room(rooms[0])?);
+    let phone_specs = model_specs(&crate::read_room(rooms[1])?);
     let (clean, phone) = (load_room_models(clean)?, load_room_models(phone)?);
     let config = training.options().config();
     specs
         .iter()
-        .map(|spec| {
+        .zip(&phone_specs)
+        .map(|(spec, phone_spec)| {
             let (clean_entry, clean_field) = model_named(&clean, &spec.name)?;
             let (phone_entry, phone_field) = model_named(&phone, &spec.name)?;
-            let own = evaluate_on_capture(spec, clean_entry, clean_field, &config)?;
-            let crossed = evaluate_on_capture(spec, phone_entry, phone_field, &config)?;
+            let refined = phone
+                .manifest
+                .models
+                .iter()
+                .position(|m| m.name == spec.name)
+                .and_then(|k| phone.refined_poses[k].as_ref());
+            let truth = read_capture(&spec.capture)?;
+            let score = |entry, field, gauge| {
+                evaluate_on_capture(spec, entry, field, &config, gauge)
+                    .map(|s| HeldOutFigures::of(&s))
+            };
+            let gauge = refined.and_then(|r| alignment_gauge(&truth, r));
             Ok(PhoneModelRow {
                 name: spec.name.clone(),
-                clean: HeldOutFigures::of(&own),
-                phone: HeldOutFigures::of(&crossed),
+                clean: score(clean_entry, clean_field, None)?,
+                phone: score(phone_entry, phone_field, None)?,
+                phone_aligned: gauge
+                    .map(|g| score(phone_entry, phone_field, Some(g)))
+                    .transpose()?,
+                poses: Some(FramePoseErrors::of(
+                    &truth,
+                    &read_capture(&phone_spec.capture)?,
+                    refined,
+                )),
             })
         })
         .collect()
@@ -311,6 +454,8 @@ mod tests {
             worst_psnr_loss_db: psnr_loss,
             worst_exposure_matched_psnr_loss_db: psnr_loss - 1.0,
             worst_chamfer_increase_mm: chamfer,
+            worst_aligned_psnr_loss_db: psnr_loss - 1.5,
+            worst_aligned_chamfer_increase_mm: chamfer - 1.0,
             locate: located.map(|[clean, phone]| PhoneLocate {
                 iou_loss_points: clean.1 - phone.1,
                 clean: mean(clean),
@@ -328,6 +473,8 @@ mod tests {
         assert_eq!(summary.worst_psnr_loss_db, 3.0);
         assert_eq!(summary.worst_exposure_matched_psnr_loss_db, 2.0);
         assert_eq!(summary.worst_chamfer_increase_mm, 6.0);
+        assert_eq!(summary.worst_aligned_psnr_loss_db, 1.5);
+        assert_eq!(summary.worst_aligned_chamfer_increase_mm, 5.0);
         let locate = summary.locate.expect("both rooms located");
         assert_eq!(locate.panoramas, 5);
         assert!((locate.clean_iou_percent - 76.0).abs() < 1e-9);
@@ -337,5 +484,72 @@ mod tests {
         // A room not located leaves no pooled figure.
         let partial = PhoneBenchSummary::of(vec![room(1.0, 1.0, None), room(1.0, 1.0, None)]);
         assert!(partial.locate.is_none());
+    }
+
+    /// The tiny room's background capture with every pose moved by `shift` metres along x and
+    /// turned by `yaw` radians.
+    fn moved_capture(shift: f64, yaw: f64) -> Capture {
+        let tiny = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../neuroom-core/tests/rooms/tiny/captures/background");
+        let mut capture = read_capture(tiny).unwrap();
+        let motion = Pose::from_yaw_translation(yaw, glam::DVec3::new(shift, 0.0, 0.0));
+        for f in &mut capture.frames {
+            f.camera_to_world = motion.compose(&f.camera_to_world);
+        }
+        capture
+    }
+
+    #[test]
+    fn pose_errors_compare_tracked_and_refined_frames_with_the_truth() {
+        let truth = moved_capture(0.0, 0.0);
+        let phone = moved_capture(0.01, 0.0);
+        let refined = RefinedPoses {
+            frames: [0, 1]
+                .iter()
+                .map(|&index| neuroom_core::formats::RefinedFrame {
+                    index,
+                    image: truth.frames[index].image.clone(),
+                    camera_to_world: moved_capture(0.0, 0.5f64.to_radians()).frames[index]
+                        .camera_to_world,
+                })
+                .collect(),
+        };
+        let errors = FramePoseErrors::of(&truth, &phone, Some(&refined));
+        assert_eq!(errors.frames, 2);
+        assert!(
+            (errors.tracked.position_cm - 1.0).abs() < 1e-9,
+            "{errors:?}"
+        );
+        assert!(errors.tracked.rotation_deg < 1e-6, "{errors:?}");
+        let refined = errors.refined.unwrap();
+        assert!((refined.rotation_deg - 0.5).abs() < 1e-6, "{errors:?}");
+        let untracked = FramePoseErrors::of(&truth, &phone, None);
+        assert_eq!(untracked.frames, truth.frames.len());
+        assert!(untracked.refined.is_none());
+    }
+
+    #[test]
+    fn the_gauge_is_the_motion_between_the_truth_and_the_refined_poses() {
+        let truth = moved_capture(0.0, 0.0);
+        let motion =
+            Pose::from_yaw_translation(0.2f64.to_radians(), DVec3::new(0.004, -0.002, 0.001));
+        let refined = RefinedPoses {
+            frames: truth
+                .frames
+                .iter()
+                .enumerate()
+                .map(|(index, f)| neuroom_core::formats::RefinedFrame {
+                    index,
+                    image: f.image.clone(),
+                    camera_to_world: motion.compose(&f.camera_to_world),
+                })
+                .collect(),
+        };
+        let gauge = alignment_gauge(&truth, &refined).unwrap();
+        let d = gauge.to_mat4() - motion.to_mat4();
+        assert!(
+            d.to_cols_array().iter().all(|x| x.abs() < 1e-9),
+            "{gauge:?}"
+        );
     }
 }
