@@ -3,6 +3,7 @@
 use crate::augment::vendored_env_maps;
 use crate::losses::LossWeights;
 use crate::ray_choice::RayChoice;
+use neuroom_core::formats::DepthNoise;
 use neuroom_field::kernel::Precision;
 use neuroom_field::{Group, NUM_GROUPS};
 use serde::{Deserialize, Serialize};
@@ -139,27 +140,31 @@ pub struct TrainConfig {
     #[serde(default, skip_serializing_if = "RayChoice::is_uniform")]
     pub ray_choice: RayChoice,
     /// Where a surface ray that has no observed depth (a phone's dropped edge samples, a hole) is
-    /// sampled. Left out while the default, as above: captures with depth on every surface ray train
-    /// the same bits whatever it is.
+    /// sampled. Left out while the default, as above: the default changes only captures that
+    /// declare their depth noise, and the suite's cache keys of those add it.
     #[serde(default, skip_serializing_if = "UnobservedSamples::is_default")]
     pub unobserved_samples: UnobservedSamples,
 }
 
 /// How the samples of a surface ray without observed depth are placed.
 ///
-/// Spread evenly over the ray (the default), a few samples centimetres apart rarely land inside a
-/// thin part (a stool's leg, a rim), and to render the mask's opacity the field grows until they do.
-/// The other way probes the ray's SDF at evenly spaced points first and puts its shell where the
-/// model's current surface crosses it (the first sign change of the SDF, or where the SDF is least
-/// when none does), as NeuS's up-sampling and instant-ngp's occupancy grid put samples where the
-/// model has its surface. The model's surface only guides the samples; it is never a depth target.
-/// It also gives whatever surface the model has in front (its starting box, a floater) the samples
-/// that keep it there: it made a phone-captured stool thinner and a depthless synthetic table
-/// fatter (experiment log, 2026-12-07), so it is an option.
+/// Spread evenly over the ray, a few samples centimetres apart rarely land inside a thin part (a
+/// stool's leg, a rim), and to render the mask's opacity the field grows until they do: a phone's
+/// LiDAR drops its samples along every silhouette and on thin parts, and every object trained on
+/// such depth came out fat. At the model's surface, the ray's SDF is probed at evenly spaced points
+/// first and its shell put where the model's current surface crosses it (the first sign change of
+/// the SDF, or where the SDF is least when none does), as NeuS's up-sampling and instant-ngp's
+/// occupancy grid put samples where the model has its surface. The model's surface only guides the
+/// samples; it is never a depth target. It also gives whatever surface the model has in front (its
+/// starting box, a floater) the samples that keep it there, so exact captures, whose every surface
+/// ray has depth but for a rare pixel, keep the even spread (experiment log, 2026-12-07).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum UnobservedSamples {
-    /// Stratified over the whole ray.
+    /// At the model's surface for a capture that declares its depth noise (`depth_noise`: a
+    /// phone's), stratified for the others.
     #[default]
+    FromCapture,
+    /// Stratified over the whole ray.
     Stratified,
     /// A shell around the model's surface, found by this many SDF probes along the ray.
     ModelSurface {
@@ -168,10 +173,24 @@ pub enum UnobservedSamples {
     },
 }
 
+/// SDF probes along a depthless surface ray of a capture with declared depth noise
+/// ([`UnobservedSamples::FromCapture`]): a probe every few centimetres over an object's box.
+pub const CAPTURE_PROBES: usize = 32;
+
 impl UnobservedSamples {
     /// Whether this is the default (then it is not serialised).
     pub fn is_default(&self) -> bool {
         *self == Self::default()
+    }
+
+    /// The probes along each depthless surface ray of a capture whose depth noise is
+    /// `depth_noise` (`None`: exact depth); `None` when such rays are spread evenly.
+    pub fn probes(&self, depth_noise: Option<DepthNoise>) -> Option<usize> {
+        match *self {
+            Self::FromCapture => depth_noise.map(|_| CAPTURE_PROBES),
+            Self::Stratified => None,
+            Self::ModelSurface { probes } => Some(probes),
+        }
     }
 }
 
@@ -310,5 +329,26 @@ impl Default for TrainConfig {
             ray_choice: RayChoice::default(),
             unobserved_samples: UnobservedSamples::default(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depthless_rays_probe_the_model_only_where_the_capture_declares_noise() {
+        let phone = Some(DepthNoise::PHONE_LIDAR);
+        let default = UnobservedSamples::default();
+        assert_eq!(default.probes(phone), Some(CAPTURE_PROBES));
+        assert_eq!(default.probes(None), None);
+        assert_eq!(UnobservedSamples::Stratified.probes(phone), None);
+        let always = UnobservedSamples::ModelSurface { probes: 8 };
+        assert_eq!(always.probes(None), Some(8));
+        let json = serde_json::to_string(&TrainConfig::default()).unwrap();
+        assert!(
+            !json.contains("unobserved_samples"),
+            "the default is left out"
+        );
     }
 }

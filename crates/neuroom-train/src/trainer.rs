@@ -12,9 +12,7 @@
 //! the generator, Adam's moments and the fitted step count, and resuming continues bit for bit.
 
 use crate::augment::Augmentation;
-use crate::config::{
-    BudgetClock, ModelBudget, ObjectStart, RefineWhen, START_INSET, TrainConfig, UnobservedSamples,
-};
+use crate::config::{BudgetClock, ModelBudget, ObjectStart, RefineWhen, START_INSET, TrainConfig};
 use crate::dataset::{Aabb, Dataset};
 use crate::draws::{
     RayPlan, SampleCounts, SampleRows, near_band, probe_distances, surface_from_probes,
@@ -628,12 +626,13 @@ impl<'a> Trainer<'a> {
     }
 
     /// Where the model's current surface crosses each surface ray that has no observed depth
-    /// ([`UnobservedSamples::ModelSurface`]): one SDF-only pass over evenly spaced probes
+    /// ([`crate::config::UnobservedSamples::probes`]): one SDF-only pass over evenly spaced probes
     /// ([`surface_from_probes`]). The ray's shell is at least half the probes' spacing wide, so it
     /// covers the crossing the probes bracket. The probes draw no random numbers, so the step's
     /// stream is the same with them or without.
     fn find_model_surfaces(&mut self, plans: &mut [RayPlan]) {
-        let UnobservedSamples::ModelSurface { probes } = self.config.unobserved_samples else {
+        let noise = self.data.device.depth_noise;
+        let Some(probes) = self.config.unobserved_samples.probes(noise) else {
             return;
         };
         let probes = probes.max(2);

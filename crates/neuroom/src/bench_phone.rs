@@ -76,7 +76,8 @@ pub struct PhoneModelRow {
     /// Trained on the phone copy.
     pub phone: HeldOutFigures,
     /// Trained on the phone copy, scored with the room's views and mesh moved into the frame the
-    /// copy's refined poses settled in ([`alignment_gauge`]); absent without refined poses.
+    /// copy's refined poses settled in (the rigid motion that best maps the room's poses of the
+    /// training frames onto their refined ones); absent without refined poses.
     #[serde(default)]
     pub phone_aligned: Option<HeldOutFigures>,
     /// How far the copy's training frames are from the room's poses, as tracked and as refined.

@@ -192,7 +192,7 @@ fn cached_models_dir_of_revision(
         .collect();
     captures.sort_unstable();
     captures.dedup();
-    let mut corrected = false;
+    let (mut corrected, mut noisy) = (false, false);
     for capture in captures {
         let transforms = room.join(capture).join("transforms.json");
         let bytes =
@@ -201,9 +201,14 @@ fn cached_models_dir_of_revision(
         let parsed = neuroom_core::formats::parse_capture(&transforms, &bytes)?;
         hash_frame_files(&mut hash, &room.join(capture), &parsed)?;
         corrected |= parsed.device.auto_exposure || parsed.device.tracked_poses;
+        noisy |= parsed.device.depth_noise.is_some();
     }
     if corrected {
         hash.update(serde_json::to_vec(&config.frame_refinement)?);
+    }
+    // Where depthless rays are sampled changes only captures that declare their depth noise.
+    if noisy {
+        hash.update(serde_json::to_vec(&config.unobserved_samples)?);
     }
     let key: String = hash.finalize()[..8]
         .iter()
