@@ -226,6 +226,15 @@ pub struct FrameRefinement {
     /// corrected rooms keep their bytes.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub silhouettes: bool,
+    /// How strongly each pose correction is pulled back towards the tracker's pose (per metre and
+    /// per radian; 0: not at all). A tracker is right to about a centimetre, and a frame whose depth
+    /// sees a wide flat face is free to slide along it, held only by the colour's edges: without
+    /// the pull, the playroom shelves' frames slid farther from the truth than the tracker left
+    /// them. At 0.1 it brought every phone model's frames nearer the truth and cost the kitchen's
+    /// locate (experiment log, 2026-12-07), so it is an option, off. Left out of the serialised
+    /// form while 0, so the suite's cache keys of corrected rooms keep their bytes.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub pose_prior: f32,
 }
 
 impl Default for FrameRefinement {
@@ -239,8 +248,14 @@ impl Default for FrameRefinement {
             gain_lr: 5e-3,
             pose_start: 0.0,
             silhouettes: false,
+            pose_prior: 0.0,
         }
     }
+}
+
+/// Whether `x` is 0 (then it is not serialised).
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
 }
 
 impl FrameRefinement {

@@ -231,9 +231,18 @@ impl FrameCorrections {
     }
 
     /// One Adam step on the gradients added since the last one, at rates `pose_lr` and `gain_lr`; then
-    /// the mean correction is taken out and the gradients are cleared.
-    pub fn step(&mut self, pose_lr: f32, gain_lr: f32) {
+    /// the mean correction is taken out and the gradients are cleared. `pose_prior` (per metre and
+    /// per radian) pulls every pose correction back towards the tracker's pose: the gradient of
+    /// `pose_prior / 2 · (|ω|² + |τ|²)` is added first.
+    pub fn step(&mut self, pose_lr: f32, gain_lr: f32, pose_prior: f32) {
         self.step += 1;
+        if pose_prior > 0.0 {
+            for (k, (g, p)) in self.grads.iter_mut().zip(&self.params).enumerate() {
+                if k % PER_FRAME < LOG_GAIN {
+                    *g += pose_prior * p;
+                }
+            }
+        }
         let update = AdamUpdate::at(AdamConfig::default(), self.step);
         let pose_lr = if self.corrected.pose { pose_lr } else { 0.0 };
         let gain_lr = if self.corrected.colour { gain_lr } else { 0.0 };
@@ -560,7 +569,7 @@ mod tests {
                 }
             }
             let lr = 1e-3 * (1.0 - i as f32 / steps as f32);
-            c.step(lr, lr);
+            c.step(lr, lr, 0.0);
         }
         let mut sum = Vec3::ZERO;
         for (f, e) in error.iter().enumerate() {
@@ -595,6 +604,33 @@ mod tests {
     }
 
     #[test]
+    fn the_pose_prior_pulls_corrections_back_to_the_tracker() {
+        let start = |prior: f32| {
+            let mut c = FrameCorrections::new(
+                anchors(&[Vec3::X, Vec3::Y, Vec3::Z]),
+                Corrected {
+                    colour: false,
+                    pose: true,
+                },
+            );
+            // Corrections that already average to zero, so centring leaves them.
+            for (f, x) in [0.01f32, -0.004, -0.006].into_iter().enumerate() {
+                c.params[f * PER_FRAME + TRANSLATION] = x;
+                c.params[f * PER_FRAME + ROTATION + 1] = -x;
+            }
+            for _ in 0..50 {
+                c.step(1e-4, 0.0, prior);
+            }
+            (0..3)
+                .map(|f| c.translation(f).length() + c.rotation(f).length())
+                .sum::<f32>()
+        };
+        let (free, pulled) = (start(0.0), start(0.1));
+        assert!((free - 0.04).abs() < 1e-6, "{free}");
+        assert!(pulled < free - 0.003, "{pulled} against {free}");
+    }
+
+    #[test]
     fn survives_a_checkpoint() {
         let mut c = FrameCorrections::new(
             anchors(&[Vec3::X, Vec3::Y, Vec3::Z]),
@@ -605,7 +641,7 @@ mod tests {
         );
         c.add_sample_grad(1, Vec3::Y, Vec3::new(0.1, 0.2, -0.3));
         c.add_colour_grad(2, [0.5, 0.5, 0.5], [0.1, -0.1, 0.2]);
-        c.step(1e-3, 1e-2);
+        c.step(1e-3, 1e-2, 0.0);
         let json = serde_json::to_value(&c).unwrap();
         let back: FrameCorrections = serde_json::from_value::<FrameCorrections>(json)
             .unwrap()

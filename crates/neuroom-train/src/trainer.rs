@@ -432,7 +432,7 @@ impl<'a> Trainer<'a> {
                 0.0
             };
             if let Some(frames) = &mut self.frames {
-                frames.step(pose_lr, refine.gain_lr * factor);
+                frames.step(pose_lr, refine.gain_lr * factor, refine.pose_prior);
             }
         } else {
             self.grads.fill_zero();
