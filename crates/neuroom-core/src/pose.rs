@@ -186,17 +186,8 @@ impl Pose {
         }
         let flip = (u * v_t).determinant().signum();
         let r = u * nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 1.0, flip)) * v_t;
-        let rotation = DMat3::from_cols_array(&[
-            r[(0, 0)],
-            r[(1, 0)],
-            r[(2, 0)],
-            r[(0, 1)],
-            r[(1, 1)],
-            r[(2, 1)],
-            r[(0, 2)],
-            r[(1, 2)],
-            r[(2, 2)],
-        ]);
+        // nalgebra stores its matrices by columns, as glam reads them.
+        let rotation = DMat3::from_cols_slice(r.as_slice());
         Some(Self::new(rotation, ct - rotation * cf))
     }
 }

@@ -371,6 +371,17 @@ fn rotation(omega: Vec3) -> Mat3 {
 mod tests {
     use super::*;
 
+    /// Corrections of the poses alone for frames anchored at `anchors`.
+    fn poses_only(anchors: Vec<FrameAnchor>) -> FrameCorrections {
+        FrameCorrections::new(
+            anchors,
+            Corrected {
+                colour: false,
+                pose: true,
+            },
+        )
+    }
+
     /// Anchors at `pivots` without sights (only the mean shift is taken out).
     fn anchors(pivots: &[Vec3]) -> Vec<FrameAnchor> {
         pivots
@@ -401,13 +412,7 @@ mod tests {
                 sight,
             })
             .collect();
-        let mut c = FrameCorrections::new(
-            frames,
-            Corrected {
-                colour: false,
-                pose: true,
-            },
-        );
+        let mut c = poses_only(frames);
         let (shift, along) = (Vec3::new(0.003, -0.002, 0.001), -0.012);
         let own = [
             Vec3::new(0.0, 0.004, 0.0),
@@ -465,13 +470,7 @@ mod tests {
             Vec3::new(0.3, 0.5, -0.8).normalize(),
         );
         let ts = [0.5, 1.1, 1.7];
-        let mut c = FrameCorrections::new(
-            anchors(&[Vec3::new(0.1, 0.3, -0.5)]),
-            Corrected {
-                colour: false,
-                pose: true,
-            },
-        );
+        let mut c = poses_only(anchors(&[Vec3::new(0.1, 0.3, -0.5)]));
         // A correction of a fraction of a degree, as a tracker's drift is.
         c.params[..6].copy_from_slice(&[0.004, -0.003, 0.002, 0.01, -0.02, 0.015]);
         c.refresh_rotations();
@@ -586,13 +585,7 @@ mod tests {
 
     #[test]
     fn motion_moves_rays_as_the_corrections_do() {
-        let mut c = FrameCorrections::new(
-            anchors(&[Vec3::new(0.1, 0.3, -0.5)]),
-            Corrected {
-                colour: false,
-                pose: true,
-            },
-        );
+        let mut c = poses_only(anchors(&[Vec3::new(0.1, 0.3, -0.5)]));
         c.params[..6].copy_from_slice(&[0.04, -0.03, 0.02, 0.01, -0.02, 0.015]);
         c.refresh_rotations();
         let motion = c.motion(0);
@@ -606,13 +599,7 @@ mod tests {
     #[test]
     fn the_pose_prior_pulls_corrections_back_to_the_tracker() {
         let start = |prior: f32| {
-            let mut c = FrameCorrections::new(
-                anchors(&[Vec3::X, Vec3::Y, Vec3::Z]),
-                Corrected {
-                    colour: false,
-                    pose: true,
-                },
-            );
+            let mut c = poses_only(anchors(&[Vec3::X, Vec3::Y, Vec3::Z]));
             // Corrections that already average to zero, so centring leaves them.
             for (f, x) in [0.01f32, -0.004, -0.006].into_iter().enumerate() {
                 c.params[f * PER_FRAME + TRANSLATION] = x;

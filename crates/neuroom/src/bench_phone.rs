@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use glam::DVec3;
 use neuroom_core::formats::{Capture, RefinedPoses, read_capture};
+use neuroom_core::metrics::rotation_error_deg;
 use neuroom_core::pose::Pose;
 use neuroom_field::NeusField;
 use neuroom_train::room::{ModelScore, evaluate_on_capture, load_room_models, model_specs};
@@ -149,7 +150,7 @@ impl FramePoseErrors {
             for (k, &i) in indices.iter().enumerate() {
                 let (got, want) = (pose(k, i), truth.frames[i].camera_to_world);
                 e.position_cm += (got.translation - want.translation).length() * 100.0;
-                e.rotation_deg += rotation_angle_deg(&got, &want);
+                e.rotation_deg += rotation_error_deg(want.rotation, got.rotation);
             }
             let n = indices.len().max(1) as f64;
             CameraPoseError {
@@ -163,13 +164,6 @@ impl FramePoseErrors {
             refined: refined.map(|r| mean_error(&|k, _| r.frames[k].camera_to_world)),
         }
     }
-}
-
-/// The angle of the rotation that takes `a`'s orientation to `b`'s (degrees).
-fn rotation_angle_deg(a: &Pose, b: &Pose) -> f64 {
-    let relative = a.rotation.transpose() * b.rotation;
-    let cos = 0.5 * (relative.x_axis.x + relative.y_axis.y + relative.z_axis.z - 1.0);
-    cos.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
 /// What phone data cost.
