@@ -30,7 +30,7 @@ pub mod symmetry;
 pub mod trainer;
 
 pub use config::{BudgetClock, ModelBudget, ObjectStart, TrainConfig, UnobservedSamples};
-pub use reuse::TRAINING_REVISION;
+pub use reuse::{NOISY_DEPTH_REVISION, TRAINING_REVISION};
 pub use room::{
     MANIFEST_FILE, Manifest, ModelEntry, RoomModels, TrainError, TrainSummary, load_room_models,
     read_manifest, train_room,

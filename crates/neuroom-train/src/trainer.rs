@@ -1135,24 +1135,37 @@ struct ShellLimits {
 }
 
 impl ShellLimits {
-    /// The shell's half-width on a ray of `|n · d|` = `cos` whose depth may be off by `spread`:
-    /// the NeuS transition, `5 / (inv_s · cos)` within the limits (a grazing ray crosses it over a
-    /// longer stretch), and at least the spread. With noisy depth (`spread > 0`) the shell spans
-    /// the whole near band too ([`near_band`], at least the spread): the band's SDF targets then
-    /// carry the noise, and a part of the band the samples leave out is shaped only by what the
-    /// noisy updates of the hash grid leak into it. On a phone-degraded room thin floaters grew there,
-    /// a few centimetres in front of the floor; sampled, the band's free-space side and the
-    /// eikonal term keep it clean (docs/experiment-log.md, 2026-12-07). Exact depth keeps the narrow
-    /// shell, its targets consistent.
+    /// The shell's half-width on a ray of `|n · d|` = `cos` whose depth may be off by `spread` (two
+    /// standard deviations of its noise): the NeuS transition, `5 / (inv_s · cos)` within the limits
+    /// (a grazing ray crosses it over a longer stretch). With noisy depth (`spread > 0`) the shell
+    /// also spans:
+    /// - the whole near band ([`near_band`]): the band's SDF targets carry the noise, and a part of
+    ///   the band the samples leave out is shaped only by what the noisy updates of the hash grid
+    ///   leak into it (on a phone-degraded room thin floaters grew there, a few centimetres in front
+    ///   of the floor);
+    /// - twice the spread (four standard deviations): the surface lies within three of the observed
+    ///   depth on all but 0.3 % of rays, and the shell must reach past it. On a ray whose depth read
+    ///   short by more than the shell's reach, no sample lies behind the surface; a thin part's
+    ///   faces then fall between two samples, the ray renders empty, and its opacity term grows the
+    ///   part towards the camera: noisy depth alone made the phone models fat by most of a noise σ
+    ///   (docs/experiment-log.md, 2026-12-07).
+    ///
+    /// Exact depth keeps the narrow shell, its targets consistent.
     fn half_width(&self, inv_s: f32, cos: f32, spread: f32) -> f32 {
         let transition = (5.0 / (inv_s * cos)).clamp(self.min, self.max);
         if spread > 0.0 {
-            transition.max(near_band(self.band, spread))
+            transition
+                .max(near_band(self.band, spread))
+                .max(NOISY_SHELL_SPREADS * spread)
         } else {
             transition
         }
     }
 }
+
+/// How many depth-noise spreads ([`depth_spread`]) a noisy ray's shell reaches on either side of its
+/// observed depth ([`ShellLimits::half_width`]).
+const NOISY_SHELL_SPREADS: f32 = 2.0;
 
 /// How far from a ray's observed distance `d` its surface may lie when the capture's depth is noisy:
 /// two standard deviations of the sensor's noise there (0 for exact depth or none). The depth-guided
@@ -1316,10 +1329,10 @@ impl Trainer<'_> {
 mod tests {
     use super::*;
 
-    /// Exact depth keeps the NeuS transition's shell; noisy depth spans the near band, or the
-    /// spread where that is wider.
+    /// Exact depth keeps the NeuS transition's shell; noisy depth spans the near band, or twice
+    /// the spread where that is wider.
     #[test]
-    fn a_noisy_rays_shell_spans_its_near_band() {
+    fn a_noisy_rays_shell_spans_its_near_band_and_twice_its_spread() {
         let limits = ShellLimits {
             min: 0.005,
             max: 0.5,
@@ -1328,7 +1341,8 @@ mod tests {
         let transition = 5.0 / (1000.0 * 0.5);
         assert_eq!(limits.half_width(1000.0, 0.5, 0.0), transition);
         assert_eq!(limits.half_width(1000.0, 0.5, 0.02), 0.05);
-        assert_eq!(limits.half_width(1000.0, 0.5, 0.08), 0.08);
+        assert_eq!(limits.half_width(1000.0, 0.5, 0.04), 0.08);
+        assert_eq!(limits.half_width(1000.0, 0.5, 0.08), 0.16);
         assert_eq!(limits.half_width(20.0, 0.5, 0.02), 0.5);
     }
 }

@@ -161,7 +161,8 @@ pub fn suite_rooms(dirs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
 /// budgets, a build that trains other bits or a regenerated room (its poses kept or not) train anew
 /// instead of reusing stale models. The per-frame corrections' settings are left out of a
 /// configuration's serialised form while they are the defaults; a room whose captures come from a
-/// phone (corrections learned) is keyed by them too, so a change of those defaults retrains it.
+/// phone (corrections learned) is keyed by them too, so a change of those defaults retrains it, and
+/// a room with noisy-depth captures by [`neuroom_train::NOISY_DEPTH_REVISION`].
 pub fn cached_models_dir(
     cache: &Path,
     room: &Path,
@@ -206,9 +207,11 @@ fn cached_models_dir_of_revision(
     if corrected {
         hash.update(serde_json::to_vec(&config.frame_refinement)?);
     }
-    // Where depthless rays are sampled changes only captures that declare their depth noise.
+    // Where depthless rays are sampled, and how noisy depth trains, change only captures that
+    // declare their depth noise.
     if noisy {
         hash.update(serde_json::to_vec(&config.unobserved_samples)?);
+        hash.update(neuroom_train::NOISY_DEPTH_REVISION.to_le_bytes());
     }
     let key: String = hash.finalize()[..8]
         .iter()
