@@ -238,13 +238,17 @@ pub struct FrameRefinement {
 }
 
 impl Default for FrameRefinement {
-    /// Poses at 3e-4 (0.3 mm or 0.3 mrad per step at most: a tracker's centimetres are crossed in a
-    /// hundred steps, and the steps' own jitter stays well below the error corrected), gains at 5e-3,
-    /// poses from the first step.
+    /// Poses at 1e-4 (0.1 mm or 0.1 mrad per step at most), gains at 5e-3, poses from the first step.
+    /// Adam moves a parameter by about its rate every step whatever the size of its gradient, so a
+    /// direction the data barely pins (a frame sliding along a flat face it sees) walks at random by
+    /// about `rate · √(steps / 3)` under the schedule's decay: at 3e-4 that was a centimetre over a
+    /// model's 2 000 steps, as large as the tracker's error, and some objects' frames ended farther
+    /// from the truth than the tracker left them. A tracker's centimetres are still crossed in a few
+    /// hundred steps (docs/experiment-log.md, 2026-12-07).
     fn default() -> Self {
         Self {
             when: RefineWhen::FromCapture,
-            pose_lr: 3e-4,
+            pose_lr: 1e-4,
             gain_lr: 5e-3,
             pose_start: 0.0,
             silhouettes: false,
