@@ -235,6 +235,22 @@ pub struct FrameRefinement {
     /// form while 0, so the suite's cache keys of corrected rooms keep their bytes.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub pose_prior: f32,
+    /// The channel level (sRGB, 0–1) at or above which a frame with its own exposure reads as
+    /// clipped at white; 1 or more: none does. A clipped channel says its surface is at least
+    /// that bright, not that bright, so the colour loss scores it as a lower bound: once a
+    /// frame's gain is divided out, its clipped highlights would otherwise say the surface is
+    /// darker in every frame exposed brighter, and pull the model's colour down there. A
+    /// camera of fixed exposure clips every frame alike, which the model matches as it is, so
+    /// only frames with a learned gain take the bound.
+    #[serde(default = "default_clipped_white")]
+    pub clipped_white: f32,
+}
+
+/// Default [`FrameRefinement::clipped_white`]: 250 of an 8-bit channel's 255. A phone's tone
+/// curve bends its highlights towards white and its JPEG scatters a clipped patch a few levels
+/// below 255, so the bound starts a little below it.
+fn default_clipped_white() -> f32 {
+    250.0 / 255.0
 }
 
 impl Default for FrameRefinement {
@@ -253,6 +269,7 @@ impl Default for FrameRefinement {
             pose_start: 0.0,
             silhouettes: false,
             pose_prior: 0.0,
+            clipped_white: default_clipped_white(),
         }
     }
 }
@@ -369,5 +386,14 @@ mod tests {
             !json.contains("unobserved_samples"),
             "the default is left out"
         );
+    }
+
+    #[test]
+    fn a_frame_refinement_written_before_the_clipped_bound_reads_with_it() {
+        let old = r#"{"when":"FromCapture","pose_lr":1e-4,"gain_lr":5e-3,"pose_start":0.0}"#;
+        let read: FrameRefinement = serde_json::from_str(old).unwrap();
+        assert_eq!(read.clipped_white, FrameRefinement::default().clipped_white);
+        let json = serde_json::to_string(&FrameRefinement::default()).unwrap();
+        assert!(json.contains("clipped_white"), "cache keys see the bound");
     }
 }

@@ -122,15 +122,23 @@ impl RayPlan {
     }
 
     /// What the ray is scored against: its observed colour (relit when the plan says so), distance
-    /// and opacity.
-    pub fn target(&self, rays: &Rays, augmentation: &Augmentation) -> RayTarget {
-        let rgb = rays.color(self.ray);
+    /// and opacity. With `white`, the channels observed at or above it read clipped (relighting
+    /// scales a channel by a positive factor, so a relit clipped channel is still a lower bound).
+    pub fn target(
+        &self,
+        rays: &Rays,
+        augmentation: &Augmentation,
+        white: Option<f32>,
+    ) -> RayTarget {
+        let observed = rays.color(self.ray);
+        let clipped = std::array::from_fn(|k| white.is_some_and(|w| observed[k] >= w));
         let rgb = match self.relight {
-            Some(k) => augmentation.relight_srgb(k, rgb, self.normal),
-            None => rgb,
+            Some(k) => augmentation.relight_srgb(k, observed, self.normal),
+            None => observed,
         };
         RayTarget {
             rgb: (!self.empty).then_some(rgb),
+            clipped,
             distance: self.observed(),
             opacity: if self.empty { 0.0 } else { 1.0 },
         }

@@ -78,6 +78,9 @@ impl LossParts {
 pub struct RayTarget {
     /// Target colour, for surface rays.
     pub rgb: Option<[f32; 3]>,
+    /// The channels of `rgb` that read clipped at white: the rendered colour is held at or above
+    /// them, not to them ([`crate::config::FrameRefinement::clipped_white`]).
+    pub clipped: [bool; 3],
     /// Observed distance to the surface, when known.
     pub distance: Option<f32>,
     /// Target opacity (1 surface, 0 empty).
@@ -108,8 +111,9 @@ pub fn ray_loss(
     let mut grad = RayOutput::default();
     let mut parts = [0.0; 4];
     if let Some(rgb) = target.rgb {
-        for ((g, o), t) in grad.rgb.iter_mut().zip(out.rgb).zip(rgb) {
-            let e = o - t;
+        for (k, (g, o)) in grad.rgb.iter_mut().zip(out.rgb).enumerate() {
+            let e = o - rgb[k];
+            let e = if target.clipped[k] { e.min(0.0) } else { e };
             parts[3] += e * e / 3.0;
             *g = scales.color * 2.0 * e / 3.0;
         }
@@ -219,8 +223,11 @@ mod tests {
             .map(|i| [0.2 + 0.05 * i as f32, 0.5, 0.9 - 0.03 * i as f32])
             .collect();
         let inv_s = 40.0;
+        // Red reads clipped below the rendered colour (no loss), blue above it (a lower bound the
+        // colour falls short of), green not clipped.
         let target = RayTarget {
-            rgb: Some([0.5, 0.3, 0.6]),
+            rgb: Some([0.3, 0.3, 0.95]),
+            clipped: [true, false, true],
             distance: Some(1.1),
             opacity: 1.0,
         };
@@ -247,18 +254,25 @@ mod tests {
                 "sdf {i}: {fd} vs {}",
                 d_sdf[i]
             );
-            let (mut a, mut b) = (rgb.clone(), rgb.clone());
-            a[i][1] += h;
-            b[i][1] -= h;
-            let fd = (total(&t, &sdf, &a, inv_s, &target, &scales)
-                - total(&t, &sdf, &b, inv_s, &target, &scales))
-                / (2.0 * h as f64);
-            assert!(
-                (fd - d_rgb[i][1] as f64).abs() < 1e-3,
-                "rgb {i}: {fd} vs {}",
-                d_rgb[i][1]
-            );
+            for c in 0..3 {
+                let (mut a, mut b) = (rgb.clone(), rgb.clone());
+                a[i][c] += h;
+                b[i][c] -= h;
+                let fd = (total(&t, &sdf, &a, inv_s, &target, &scales)
+                    - total(&t, &sdf, &b, inv_s, &target, &scales))
+                    / (2.0 * h as f64);
+                assert!(
+                    (fd - d_rgb[i][c] as f64).abs() < 1e-3,
+                    "rgb {i}.{c}: {fd} vs {}",
+                    d_rgb[i][c]
+                );
+            }
         }
+        assert_eq!(d_rgb[5][0], 0.0, "a clipped channel above its bound pulls");
+        assert!(
+            d_rgb[5][2] < 0.0,
+            "a clipped channel below its bound is free"
+        );
         let hs = 0.05;
         let fd = (total(&t, &sdf, &rgb, inv_s + hs, &target, &scales)
             - total(&t, &sdf, &rgb, inv_s - hs, &target, &scales))
@@ -267,6 +281,38 @@ mod tests {
             (fd - d_s as f64).abs() < 2e-2 * (1.0 + fd.abs()),
             "inv_s: {fd} vs {d_s}"
         );
+    }
+
+    #[test]
+    fn clipped_channel_is_a_lower_bound() {
+        let scales = RayScales {
+            color: 1.0,
+            depth: 0.0,
+            mask: 0.0,
+        };
+        let out = RayOutput {
+            rgb: [1.0, 0.9, 0.9],
+            ..RayOutput::default()
+        };
+        let score = |clipped| {
+            let target = RayTarget {
+                rgb: Some([0.95, 0.95, 0.8]),
+                clipped,
+                distance: None,
+                opacity: 1.0,
+            };
+            ray_loss(&out, &target, &scales)
+        };
+        let (exact, g_exact) = score([false; 3]);
+        let (bound, g_bound) = score([true; 3]);
+        // Above its bound red costs nothing; below it green costs what it would exactly; blue
+        // (0.9 over 0.8) too costs nothing as a bound.
+        assert_eq!(g_bound.rgb[0], 0.0);
+        assert_eq!(g_bound.rgb[1], g_exact.rgb[1]);
+        assert_eq!(g_bound.rgb[2], 0.0);
+        assert!(g_exact.rgb[0] > 0.0 && g_exact.rgb[2] > 0.0);
+        let green = 0.05f32 * 0.05 / 3.0;
+        assert!((bound[3] - green).abs() < 1e-7 && exact[3] > bound[3]);
     }
 
     #[test]

@@ -548,6 +548,14 @@ impl<'a> Trainer<'a> {
         self.poses_move() && self.config.frame_refinement.silhouettes
     }
 
+    /// The level at which the targets' channels read clipped: only where frames learn their own
+    /// colour gain ([`crate::config::FrameRefinement::clipped_white`]).
+    fn clipped_white(&self) -> Option<f32> {
+        let white = self.config.frame_refinement.clipped_white;
+        let gains = self.frames.as_ref().is_some_and(|f| f.corrected.colour);
+        (gains && white < 1.0).then_some(white)
+    }
+
     fn schedule(&self) -> Schedule {
         Schedule::Polynomial {
             warmup: self.config.warmup_steps,
@@ -579,6 +587,7 @@ impl<'a> Trainer<'a> {
         let mut plans = self.plan_rays();
         self.find_model_surfaces(&mut plans);
         let (counts, band) = (self.sample_counts(), self.budget.sdf_band * self.diag);
+        let white = self.clipped_white();
         let b = &mut self.batch;
         b.offsets.clear();
         b.ray_frame.clear();
@@ -616,7 +625,7 @@ impl<'a> Trainer<'a> {
         let (rays, augmentation) = (&self.data.rays, self.augmentation);
         plans
             .par_iter()
-            .map(|plan| plan.target(rays, augmentation))
+            .map(|plan| plan.target(rays, augmentation, white))
             .collect_into_vec(&mut b.targets);
         for v in [&mut b.d_sdf, &mut b.d_rgb] {
             v.clear();

@@ -138,12 +138,18 @@ fn field_bounds(trainer: &Trainer<'_>) -> Aabb {
 
 /// A tall column (10 × 24 × 80 cm, coloured by position) seen by 20 cameras at 1.4 m, with its box.
 fn column_data(dir: &std::path::Path) -> (Dataset, Aabb) {
+    coloured_column_data(dir, Vec3::ZERO)
+}
+
+/// The column of [`column_data`] with its colours mid-grey at `grey` (each channel saturates 0.4 m
+/// from it along its axis).
+fn coloured_column_data(dir: &std::path::Path, grey: Vec3) -> (Dataset, Aabb) {
     let half = Vec3::new(0.05, 0.12, 0.4);
     let column = neuroom_field::AnalyticField::Cuboid {
         centre: Vec3::ZERO,
         half,
         color: neuroom_field::AnalyticColor::Position {
-            origin: Vec3::ZERO,
+            origin: grey,
             scale: 0.4,
         },
     };
@@ -265,6 +271,25 @@ fn centre_ray_error(
     misses.iter().map(|m| (*m - mean).length()).sum::<f32>() / misses.len() as f32
 }
 
+/// A column's object model trained on `data` under `config`, and its held-out report.
+fn train_column<'a>(
+    data: &'a Dataset,
+    aug: &'a Augmentation,
+    config: &TrainConfig,
+    bounds: Aabb,
+) -> (Trainer<'a>, neuroom_train::eval::EvalReport) {
+    let mut trainer = Trainer::new(data, aug, config, ModelKind::Object, bounds);
+    trainer.run("column", None, &Quiet).unwrap();
+    let report = evaluate(
+        &trainer.field,
+        &data.held_out,
+        &field_bounds(&trainer),
+        aug,
+        1,
+    );
+    (trainer, report)
+}
+
 #[test]
 fn a_phone_capture_trains_better_with_its_frames_corrected() {
     let dir = tempfile::tempdir().unwrap();
@@ -274,15 +299,7 @@ fn a_phone_capture_trains_better_with_its_frames_corrected() {
         // Poses converge more slowly than colours: 400 steps left a third of the error.
         let mut config = quick_config(800);
         config.frame_refinement.when = when;
-        let mut trainer = Trainer::new(&data, &aug, &config, ModelKind::Object, bounds);
-        trainer.run("column", None, &Quiet).unwrap();
-        let report = evaluate(
-            &trainer.field,
-            &data.held_out,
-            &field_bounds(&trainer),
-            &aug,
-            1,
-        );
+        let (trainer, report) = train_column(&data, &aug, &config, bounds);
         let residual = trainer
             .corrections()
             .map(|c| centre_ray_error(&data, &errors, Some(c)));
@@ -309,6 +326,58 @@ fn a_phone_capture_trains_better_with_its_frames_corrected() {
         refined.psnr_db,
         plain.psnr_db
     );
+}
+
+/// A column whose blue channel is white on its upper part ([`coloured_column_data`]) exposed per frame by
+/// a camera that clips at white: each training frame's colours scaled by a gain between 0.74 and 1.35
+/// (fixed draws, about 1 on average in log) and clipped at 1, as a phone's auto-exposure leaves its
+/// highlights. Red and green stay clear of white, so they pin each frame's gain.
+fn clipped_column_data(dir: &std::path::Path) -> (Dataset, Aabb) {
+    let (mut data, bounds) = coloured_column_data(dir, Vec3::new(0.0, 0.0, -0.2));
+    data.device.auto_exposure = true;
+    let draw = |k: usize| (k as f32 * 0.618_034).fract() * 2.0 - 1.0;
+    for i in 0..data.rays.len() {
+        let gain = (0.3 * draw(data.rays.frame[i] as usize)).exp();
+        for c in &mut data.rays.rgb[i] {
+            *c = (*c as f32 * gain).min(65535.0) as u16;
+        }
+    }
+    (data, bounds)
+}
+
+#[test]
+fn clipped_highlights_of_frames_with_their_own_exposure_are_learned_as_bright_as_they_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, bounds) = clipped_column_data(dir.path());
+    let surface: Vec<&[u16; 3]> = (0..data.rays.len())
+        .filter(|&i| !data.rays.empty[i])
+        .map(|i| &data.rays.rgb[i])
+        .collect();
+    let clipped = surface.iter().filter(|c| c[2] == 65535).count();
+    assert!(
+        clipped * 5 > surface.len(),
+        "{clipped} of {} surface rays clip",
+        surface.len()
+    );
+    let aug = Augmentation::default();
+    let run = |white: f32| {
+        let mut config = quick_config(400);
+        config.frame_refinement.clipped_white = white;
+        let (_, report) = train_column(&data, &aug, &config, bounds);
+        report.psnr_exposure_matched_db.expect("frames with gains")
+    };
+    let as_values = run(2.0);
+    let as_bounds = run(config_default_white());
+    eprintln!("clipped column: {as_values:.2} dB as values, {as_bounds:.2} dB as bounds");
+    assert!(
+        as_bounds > as_values + 0.5,
+        "{as_bounds:.2} against {as_values:.2} dB"
+    );
+}
+
+/// The default level at which a channel reads clipped.
+fn config_default_white() -> f32 {
+    neuroom_train::config::FrameRefinement::default().clipped_white
 }
 
 #[test]
