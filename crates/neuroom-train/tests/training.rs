@@ -8,7 +8,7 @@ use neuroom_core::formats::read_room;
 use neuroom_core::formats::{DepthNoise, read_capture};
 use neuroom_core::surface::{Grid, chamfer, extract_surface};
 use neuroom_train::augment::Augmentation;
-use neuroom_train::config::RefineWhen;
+use neuroom_train::config::{FrameRefinement, RefineWhen};
 use neuroom_train::dataset::{Aabb, Dataset, LoadOptions, Role};
 use neuroom_train::eval::{evaluate, extract_mesh};
 use neuroom_train::progress::Quiet;
@@ -209,13 +209,16 @@ fn zero_on_average(mut errors: Vec<PoseError>, origins: &[[f32; 3]]) -> Vec<Pose
     errors
 }
 
+/// The `k`-th of a deterministic sequence of draws spread over [-1, 1] (golden-ratio steps).
+fn draw(k: usize) -> f32 {
+    (k as f32 * 0.618_034).fract() * 2.0 - 1.0
+}
+
 /// The column's capture ([`column_data`]) as a phone would give it: every training frame's centre off
 /// by up to 1.5 cm, its rays turned by up to 0.7°, its colours scaled by up to ±15 % per channel (fixed
 /// draws). Returns the dataset, the column's box and each frame's pose error.
 fn phone_column_data(dir: &std::path::Path) -> (Dataset, Aabb, Vec<PoseError>) {
     let (mut data, bounds) = column_data(dir);
-    // Deterministic, spread draws in [-1, 1].
-    let draw = |k: usize| (k as f32 * 0.618_034).fract() * 2.0 - 1.0;
     let errors: Vec<PoseError> = (0..data.origins.len())
         .map(|f| {
             let axis = Vec3::new(draw(9 * f + 3), draw(9 * f + 4), draw(9 * f + 5)).normalize();
@@ -335,7 +338,6 @@ fn a_phone_capture_trains_better_with_its_frames_corrected() {
 fn clipped_column_data(dir: &std::path::Path) -> (Dataset, Aabb) {
     let (mut data, bounds) = coloured_column_data(dir, Vec3::new(0.0, 0.0, -0.2));
     data.device.auto_exposure = true;
-    let draw = |k: usize| (k as f32 * 0.618_034).fract() * 2.0 - 1.0;
     for i in 0..data.rays.len() {
         let gain = (0.3 * draw(data.rays.frame[i] as usize)).exp();
         for c in &mut data.rays.rgb[i] {
@@ -367,17 +369,12 @@ fn clipped_highlights_of_frames_with_their_own_exposure_are_learned_as_bright_as
         report.psnr_exposure_matched_db.expect("frames with gains")
     };
     let as_values = run(2.0);
-    let as_bounds = run(config_default_white());
+    let as_bounds = run(FrameRefinement::default().clipped_white);
     eprintln!("clipped column: {as_values:.2} dB as values, {as_bounds:.2} dB as bounds");
     assert!(
         as_bounds > as_values + 0.5,
         "{as_bounds:.2} against {as_values:.2} dB"
     );
-}
-
-/// The default level at which a channel reads clipped.
-fn config_default_white() -> f32 {
-    neuroom_train::config::FrameRefinement::default().clipped_white
 }
 
 #[test]
