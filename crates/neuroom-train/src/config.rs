@@ -389,10 +389,13 @@ mod tests {
         );
     }
 
+    /// A frame refinement as written before the silhouettes and the clipped bound had keys.
+    const WRITTEN_BEFORE: &str =
+        r#"{"when":"FromCapture","pose_lr":1e-4,"gain_lr":5e-3,"pose_start":0.0}"#;
+
     #[test]
     fn a_frame_refinement_written_before_the_clipped_bound_reads_with_it() {
-        let old = r#"{"when":"FromCapture","pose_lr":1e-4,"gain_lr":5e-3,"pose_start":0.0}"#;
-        let read: FrameRefinement = serde_json::from_str(old).unwrap();
+        let read: FrameRefinement = serde_json::from_str(WRITTEN_BEFORE).unwrap();
         assert_eq!(read.clipped_white, FrameRefinement::default().clipped_white);
         let json = serde_json::to_string(&FrameRefinement::default()).unwrap();
         assert!(json.contains("clipped_white"), "cache keys see the bound");
@@ -400,8 +403,7 @@ mod tests {
 
     #[test]
     fn a_frame_refinement_written_while_silhouettes_were_off_reads_them_off() {
-        let old = r#"{"when":"FromCapture","pose_lr":1e-4,"gain_lr":5e-3,"pose_start":0.0}"#;
-        let read: FrameRefinement = serde_json::from_str(old).unwrap();
+        let read: FrameRefinement = serde_json::from_str(WRITTEN_BEFORE).unwrap();
         assert!(!read.silhouettes);
         assert!(FrameRefinement::default().silhouettes);
         let json = serde_json::to_string(&FrameRefinement::default()).unwrap();
